@@ -1,0 +1,402 @@
+"""Warp kernels of one MLS-MPM step (APIC transfers, quadratic B-splines), generic over float32/float64.
+
+One step is three launches: ``p2g`` (constitutive update and particle-to-grid transfer), ``grid_update``
+(gravity and boundaries) and ``g2p`` (grid-to-particle transfer and advection). Every input a loss may depend on
+(particle state, material parameters, boundary parameters) is a Warp array, so Warp's generated adjoints give the
+gradients. The two spectral matrix functions (logarithm and exponential of symmetric matrices) and the scalar
+Herschel-Bulkley return have hand-written adjoints that stay finite at repeated eigenvalues (undeformed material).
+
+Stress conventions: Kirchhoff stress ``tau``; deviatoric norm ``|s|``; equivalent shear stress ``|s| / sqrt(2)``,
+which is what ``tau_y`` and the Herschel-Bulkley law refer to (``tau = tau_y + K gamma_dot^n`` in simple shear).
+"""
+
+
+import functools
+from types import SimpleNamespace
+
+import warp as wp
+
+wp.config.quiet = True
+
+# Constitutive models (index into the p2g branch).
+MODEL_HERSCHEL_BULKLEY = 0
+MODEL_PLASTICINE = 1
+MODEL_NEWTONIAN = 2
+MODEL_NEO_HOOKEAN = 3
+
+# Layout of the material parameter array passed to the kernels.
+P_MU, P_LAM, P_TAU_Y, P_K, P_N, P_RHO = range(6)
+N_MATERIAL_PARAMS = 6
+
+# Collider shapes, contact laws and layouts of the collider arrays.
+SHAPE_FLOOR = 0  # half-space z <= geom[0]
+SHAPE_BOX = 1  # axis-aligned box: centre geom[0:3], half extents geom[3:6]
+SHAPE_CUP = 2  # open-bottomed truncated-cone shell, see boundaries.Cup
+CONTACT_STICKY = 0
+CONTACT_SLIP = 1
+CONTACT_FRICTION = 2
+N_GEOM = 8
+B_FRICTION, B_VX, B_VY, B_VZ = range(4)
+N_BOUNDARY_PARAMS = 4
+MAX_COLLIDERS = 8
+
+BOUND = 3  # grid nodes next to each domain face that act as slip walls; particles must stay inside them
+
+# Below this relative gap two eigenvalues are treated as one and divided differences use a series.
+_SERIES_GAP = 1e-2
+
+
+@functools.cache
+def build(scalar: type) -> SimpleNamespace:
+    """Compile-ready kernels for one scalar type (``wp.float32`` or ``wp.float64``)."""
+    vec3 = wp.types.vector(3, scalar)
+    mat33 = wp.types.matrix((3, 3), scalar)
+    zero = scalar(0.0)
+    one = scalar(1.0)
+    half = scalar(0.5)
+    third = scalar(1.0 / 3.0)
+    sqrt2 = scalar(2.0**0.5)
+    series_gap = scalar(_SERIES_GAP)
+    tiny = scalar(1e-30)
+    min_eig = scalar(1e-12)
+
+    @wp.func
+    def log_divided(a: scalar, b: scalar) -> scalar:
+        """(log a - log b) / (a - b), exact also when a and b (both > 0) nearly coincide."""
+        r = (a - b) / b
+        if wp.abs(r) < series_gap:
+            r2 = r * r
+            return (one - half * r + r2 * third - scalar(0.25) * r2 * r + scalar(0.2) * r2 * r2
+                    - r2 * r2 * r / scalar(6.0)) / b
+        return (wp.log(a) - wp.log(b)) / (a - b)
+
+    @wp.func
+    def exp_divided(a: scalar, b: scalar) -> scalar:
+        """(exp a - exp b) / (a - b), exact also when a and b nearly coincide."""
+        d = a - b
+        if wp.abs(d) < series_gap:
+            d2 = d * d
+            return wp.exp(b) * (one + half * d + d2 / scalar(6.0) + d2 * d / scalar(24.0)
+                                + d2 * d2 / scalar(120.0) + d2 * d2 * d / scalar(720.0))
+        return (wp.exp(a) - wp.exp(b)) / d
+
+    @wp.func
+    def sym_log(b: mat33) -> mat33:
+        """Matrix logarithm of a symmetric positive definite matrix."""
+        Q = mat33()
+        d = vec3()
+        wp.eig3(b, Q, d)
+        L = wp.diag(vec3(wp.log(wp.max(d[0], min_eig)), wp.log(wp.max(d[1], min_eig)),
+                         wp.log(wp.max(d[2], min_eig))))
+        return Q * L * wp.transpose(Q)
+
+    @wp.func_grad(sym_log)
+    def adj_sym_log(b: mat33, adj_ret: mat33):
+        # Daleckii-Krein: dL = Q (D o (Q^T db Q)) Q^T with D the divided differences of log.
+        Q = mat33()
+        d = vec3()
+        wp.eig3(b, Q, d)
+        lam = vec3(wp.max(d[0], min_eig), wp.max(d[1], min_eig), wp.max(d[2], min_eig))
+        A = wp.transpose(Q) * (adj_ret + wp.transpose(adj_ret)) * Q * half
+        M = mat33()
+        for i in range(3):
+            for j in range(3):
+                M[i, j] = A[i, j] * log_divided(lam[i], lam[j])
+        wp.adjoint[b] += Q * M * wp.transpose(Q)
+
+    @wp.func
+    def sym_exp(S: mat33) -> mat33:
+        """Matrix exponential of a symmetric matrix."""
+        Q = mat33()
+        d = vec3()
+        wp.eig3(S, Q, d)
+        return Q * wp.diag(vec3(wp.exp(d[0]), wp.exp(d[1]), wp.exp(d[2]))) * wp.transpose(Q)
+
+    @wp.func_grad(sym_exp)
+    def adj_sym_exp(S: mat33, adj_ret: mat33):
+        Q = mat33()
+        d = vec3()
+        wp.eig3(S, Q, d)
+        A = wp.transpose(Q) * (adj_ret + wp.transpose(adj_ret)) * Q * half
+        M = mat33()
+        for i in range(3):
+            for j in range(3):
+                M[i, j] = A[i, j] * exp_divided(d[i], d[j])
+        wp.adjoint[S] += Q * M * wp.transpose(Q)
+
+    @wp.func
+    def hb_excess(excess_trial: scalar, relax: scalar, K: scalar, n: scalar) -> scalar:
+        """Stress excess u = t - tau_y after one backward-Euler Herschel-Bulkley step.
+
+        Solves ``u + relax * (u / K)^(1/n) = excess_trial`` (``relax = mu dt``) by Newton's method on the convex
+        form of the equation, started above the root so that the iterates decrease monotonically.
+        """
+        if excess_trial <= zero:
+            return zero
+        m = one / n
+        u = zero
+        if n <= one:
+            # g(u) = u + relax (u/K)^m - excess_trial is convex in u; start at the smaller of two upper bounds.
+            u = wp.min(excess_trial, K * wp.pow(excess_trial / relax, n))
+            for _ in range(40):
+                q = wp.pow(u / K, m)
+                g = u + relax * q - excess_trial
+                dg = one + relax * m * q / wp.max(u, tiny)
+                u_next = wp.max(u - g / dg, zero)
+                if u_next >= u:
+                    break
+                u = u_next
+        else:
+            # In the shear rate w, h(w) = K w^n + relax w - excess_trial is convex; start at w = excess/relax.
+            w = wp.min(excess_trial / relax, wp.pow(excess_trial / K, m))
+            for _ in range(40):
+                q = K * wp.pow(w, n)
+                h = q + relax * w - excess_trial
+                dh = n * q / wp.max(w, tiny) + relax
+                w_next = wp.max(w - h / dh, zero)
+                if w_next >= w:
+                    break
+                w = w_next
+            u = K * wp.pow(w, n)
+        return u
+
+    @wp.func_grad(hb_excess)
+    def adj_hb_excess(excess_trial: scalar, relax: scalar, K: scalar, n: scalar, adj_ret: scalar):
+        # Implicit function theorem on g(u; excess_trial, relax, K, n) = 0.
+        u = hb_excess(excess_trial, relax, K, n)
+        if u > zero:
+            m = one / n
+            q = wp.pow(u / K, m)
+            dg_du = one + relax * m * q / u
+            s = adj_ret / dg_du
+            wp.adjoint[excess_trial] += s
+            wp.adjoint[relax] += -s * q
+            wp.adjoint[K] += s * relax * m * q / K
+            wp.adjoint[n] += s * relax * q * wp.log(u / K) * m * m
+
+    @wp.func
+    def constitutive(F: mat33, C: mat33, mat: wp.array(dtype=scalar), model: int, dt: scalar):
+        """Trial deformation, plastic return and Kirchhoff stress. Returns (F_new, tau)."""
+        I = wp.identity(3, dtype=scalar)
+        Ft = (I + dt * C) * F
+        mu = mat[P_MU]
+        lam = mat[P_LAM]
+        F_new = Ft
+        tau = mat33()
+        if model == MODEL_NEWTONIAN:
+            # Volume tracked through J only; viscous stress from the APIC velocity gradient C.
+            J = wp.determinant(Ft)
+            cbrt = wp.pow(J, third)
+            F_new = wp.diag(vec3(cbrt, cbrt, cbrt))
+            D = half * (C + wp.transpose(C))
+            dev_D = D - third * wp.trace(D) * I
+            tau = J * scalar(2.0) * mat[P_K] * dev_D + lam * wp.log(J) * I
+        elif model == MODEL_NEO_HOOKEAN:
+            J = wp.determinant(Ft)
+            tau = mu * (Ft * wp.transpose(Ft) - I) + lam * wp.log(J) * I
+        else:
+            # Hencky strain; von Mises yield on the equivalent shear stress |s| / sqrt(2).
+            eps = half * sym_log(Ft * wp.transpose(Ft))
+            tr = wp.trace(eps)
+            e = eps - third * tr * I
+            t_trial = sqrt2 * mu * wp.sqrt(wp.ddot(e, e) + tiny)
+            tau_y = mat[P_TAU_Y]
+            alpha = one
+            if t_trial > tau_y:
+                t_new = tau_y
+                if model == MODEL_HERSCHEL_BULKLEY:
+                    t_new = tau_y + hb_excess(t_trial - tau_y, mu * dt, mat[P_K], mat[P_N])
+                alpha = t_new / t_trial
+                F_new = sym_exp((alpha - one) * e) * Ft
+            tau = scalar(2.0) * mu * alpha * e + (scalar(2.0 / 3.0) * mu + lam) * tr * I
+        return F_new, tau
+
+    @wp.kernel
+    def return_mapping(F: wp.array(dtype=mat33), C: wp.array(dtype=mat33), mat: wp.array(dtype=scalar),
+                       model: int, dt: scalar, F_out: wp.array(dtype=mat33), tau_out: wp.array(dtype=mat33)):
+        """The constitutive update alone, for tests and diagnostics."""
+        p = wp.tid()
+        F_new, tau = constitutive(F[p], C[p], mat, model, dt)
+        F_out[p] = F_new
+        tau_out[p] = tau
+
+    @wp.kernel
+    def hb_excess_kernel(trial: wp.array(dtype=scalar), relax: scalar, K: scalar, n: scalar,
+                         out: wp.array(dtype=scalar)):
+        i = wp.tid()
+        out[i] = hb_excess(trial[i], relax, K, n)
+
+    @wp.func
+    def stencil(x: vec3, inv_dx: scalar):
+        base_f = x * inv_dx - vec3(half, half, half)
+        base = wp.vec3i(int(wp.floor(base_f[0])), int(wp.floor(base_f[1])), int(wp.floor(base_f[2])))
+        fx = x * inv_dx - vec3(scalar(base[0]), scalar(base[1]), scalar(base[2]))
+        w0 = half * wp.cw_mul(vec3(scalar(1.5)) - fx, vec3(scalar(1.5)) - fx)
+        d1 = fx - vec3(one)
+        w1 = vec3(scalar(0.75)) - wp.cw_mul(d1, d1)
+        d2 = fx - vec3(half)
+        w2 = half * wp.cw_mul(d2, d2)
+        # row = node offset along an axis, column = axis
+        return base, fx, mat33(w0[0], w0[1], w0[2], w1[0], w1[1], w1[2], w2[0], w2[1], w2[2])
+
+    @wp.func
+    def node_offset(i: int, j: int, k: int) -> vec3:
+        # A function, so that unrolled loop constants are not cast in place (Warp types them once).
+        return vec3(scalar(i), scalar(j), scalar(k))
+
+    @wp.kernel
+    def p2g(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
+            F: wp.array(dtype=mat33), mat: wp.array(dtype=scalar), model: int, p_vol: scalar, dt: scalar,
+            inv_dx: scalar, F_out: wp.array(dtype=mat33), grid_m: wp.array3d(dtype=scalar),
+            grid_mv: wp.array3d(dtype=vec3)):
+        p = wp.tid()
+        Cp = C[p]
+        F_new, tau = constitutive(F[p], Cp, mat, model, dt)
+        F_out[p] = F_new
+        p_mass = mat[P_RHO] * p_vol
+        affine = (-dt * p_vol * scalar(4.0) * inv_dx * inv_dx) * tau + p_mass * Cp
+        mv = p_mass * v[p]
+        base, fx, W = stencil(x[p], inv_dx)
+        dx = one / inv_dx
+        for i in range(3):
+            for j in range(3):
+                for k in range(3):
+                    wgt = W[i, 0] * W[j, 1] * W[k, 2]
+                    dpos = (node_offset(i, j, k) - fx) * dx
+                    gi = base[0] + i
+                    gj = base[1] + j
+                    gk = base[2] + k
+                    wp.atomic_add(grid_mv, gi, gj, gk, wgt * (mv + affine * dpos))
+                    wp.atomic_add(grid_m, gi, gj, gk, wgt * p_mass)
+
+    @wp.func
+    def cup_sdf(p: vec3, g: wp.array2d(dtype=scalar), c: int) -> scalar:
+        # Shell of thickness g[c, 6] around a truncated-cone cavity with axis (g[c, 0], g[c, 1]), open rim at
+        # z = g[c, 2], height g[c, 3], inner radius g[c, 4] at the rim and g[c, 5] at the closed top.
+        r = wp.sqrt((p[0] - g[c, 0]) * (p[0] - g[c, 0]) + (p[1] - g[c, 1]) * (p[1] - g[c, 1]))
+        h = p[2] - g[c, 2]
+        height = g[c, 3]
+        r_in = g[c, 4] + (g[c, 5] - g[c, 4]) * wp.clamp(h / height, zero, one)
+        cavity = wp.max(r - r_in, h - height)  # < 0 inside the cavity
+        thickness = g[c, 6]
+        return wp.max(wp.abs(cavity - half * thickness) - half * thickness, -h)
+
+    @wp.func
+    def box_sdf(p: vec3, g: wp.array2d(dtype=scalar), c: int) -> scalar:
+        q = vec3(wp.abs(p[0] - g[c, 0]) - g[c, 3], wp.abs(p[1] - g[c, 1]) - g[c, 4],
+                 wp.abs(p[2] - g[c, 2]) - g[c, 5])
+        outside = wp.length(vec3(wp.max(q[0], zero), wp.max(q[1], zero), wp.max(q[2], zero)))
+        return outside + wp.min(wp.max(q[0], wp.max(q[1], q[2])), zero)
+
+    @wp.func
+    def shape_sdf(shape: int, p: vec3, g: wp.array2d(dtype=scalar), c: int) -> scalar:
+        if shape == SHAPE_FLOOR:
+            return p[2] - g[c, 0]
+        if shape == SHAPE_BOX:
+            return box_sdf(p, g, c)
+        return cup_sdf(p, g, c)
+
+    @wp.func
+    def shape_normal(shape: int, p: vec3, g: wp.array2d(dtype=scalar), c: int, h: scalar) -> vec3:
+        if shape == SHAPE_FLOOR:
+            return vec3(zero, zero, one)
+        grad = vec3(
+            shape_sdf(shape, p + vec3(h, zero, zero), g, c) - shape_sdf(shape, p - vec3(h, zero, zero), g, c),
+            shape_sdf(shape, p + vec3(zero, h, zero), g, c) - shape_sdf(shape, p - vec3(zero, h, zero), g, c),
+            shape_sdf(shape, p + vec3(zero, zero, h), g, c) - shape_sdf(shape, p - vec3(zero, zero, h), g, c))
+        return grad / wp.max(wp.length(grad), tiny)
+
+    @wp.func
+    def contact(v: vec3, v_col: vec3, nrm: vec3, law: int, friction: scalar) -> vec3:
+        rel = v - v_col
+        if law == CONTACT_STICKY:
+            return v_col
+        vn = wp.dot(rel, nrm)
+        if vn >= zero:
+            return v
+        vt = rel - vn * nrm
+        if law == CONTACT_SLIP:
+            return vt + v_col
+        vt_norm = wp.sqrt(wp.dot(vt, vt) + tiny)
+        return wp.max(one + friction * vn / vt_norm, zero) * vt + v_col
+
+    @wp.func
+    def collide(v: vec3, node: vec3, time: scalar, dx: scalar, c: int, shapes: wp.array(dtype=int),
+                laws: wp.array(dtype=int), geom: wp.array2d(dtype=scalar), timing: wp.array2d(dtype=scalar),
+                bparams: wp.array2d(dtype=scalar)) -> vec3:
+        # Collider c moves with velocity bparams[c, 1:4] between timing[c, 0] and timing[c, 1].
+        vel = vec3(bparams[c, B_VX], bparams[c, B_VY], bparams[c, B_VZ])
+        t0 = timing[c, 0]
+        t1 = timing[c, 1]
+        v_col = vec3()
+        if time >= t0 and time < t1:
+            v_col = vel
+        local = node - (wp.clamp(time, t0, t1) - t0) * vel
+        out = v
+        if shape_sdf(shapes[c], local, geom, c) <= zero:
+            nrm = shape_normal(shapes[c], local, geom, c, half * dx)
+            out = contact(v, v_col, nrm, laws[c], bparams[c, B_FRICTION])
+        return out
+
+    @wp.kernel
+    def grid_update(grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3), dt: scalar,
+                    time: scalar, dx: scalar, gravity: vec3, shapes: wp.array(dtype=int),
+                    laws: wp.array(dtype=int), geom: wp.array2d(dtype=scalar), timing: wp.array2d(dtype=scalar),
+                    bparams: wp.array2d(dtype=scalar), grid_v: wp.array3d(dtype=vec3)):
+        i, j, k = wp.tid()
+        m = grid_m[i, j, k]
+        if m <= zero:
+            grid_v[i, j, k] = vec3()
+            return
+        v = grid_mv[i, j, k] / m + dt * gravity
+        node = vec3(scalar(i), scalar(j), scalar(k)) * dx
+        count = shapes.shape[0]
+        for c in range(MAX_COLLIDERS):  # unrolled: Warp differentiates static loops only
+            if c < count:
+                v = collide(v, node, time, dx, c, shapes, laws, geom, timing, bparams)
+        # Domain faces are slip walls.
+        n = grid_m.shape[0]
+        lo = wp.vec3i(i, j, k)
+        keep = vec3(one, one, one)
+        for a in range(3):
+            if (lo[a] < BOUND and v[a] < zero) or (lo[a] > n - BOUND and v[a] > zero):
+                keep[a] = zero
+        grid_v[i, j, k] = wp.cw_mul(v, keep)
+
+    @wp.kernel
+    def g2p(x: wp.array(dtype=vec3), grid_v: wp.array3d(dtype=vec3), dt: scalar, inv_dx: scalar,
+            x_out: wp.array(dtype=vec3), v_out: wp.array(dtype=vec3), C_out: wp.array(dtype=mat33),
+            unstable: wp.array(dtype=int)):
+        p = wp.tid()
+        base, fx, W = stencil(x[p], inv_dx)
+        dx = one / inv_dx
+        new_v = vec3()
+        new_C = mat33()
+        for di in range(3):
+            for dj in range(3):
+                for dk in range(3):
+                    gv = grid_v[base[0] + di, base[1] + dj, base[2] + dk]
+                    wgt = W[di, 0] * W[dj, 1] * W[dk, 2]
+                    dpos = (node_offset(di, dj, dk) - fx) * dx
+                    new_v += wgt * gv
+                    new_C += (scalar(4.0) * inv_dx * inv_dx * wgt) * wp.outer(gv, dpos)
+        step = dt * wp.length(new_v)
+        if not (step <= dx):  # also catches NaN
+            wp.atomic_max(unstable, 0, 1)
+        v_out[p] = new_v
+        C_out[p] = new_C
+        x_out[p] = x[p] + dt * new_v
+
+    return SimpleNamespace(vec3=vec3, mat33=mat33, p2g=p2g, grid_update=grid_update, g2p=g2p,
+                           return_mapping=return_mapping, hb_excess=hb_excess_kernel)
+
+
+def scalar_type(dtype) -> type:
+    """The Warp scalar type of a torch dtype."""
+    import torch
+
+    if dtype == torch.float64:
+        return wp.float64
+    if dtype == torch.float32:
+        return wp.float32
+    raise ValueError(f"unsupported dtype {dtype}: use torch.float32 or torch.float64")

@@ -1,0 +1,386 @@
+"""Differentiable MLS-MPM rollouts: Warp kernels inside a torch.autograd.Function, with chunked checkpointing.
+
+A rollout advances particles from an initial state through ``frames`` frames of ``substeps`` steps each and returns
+the particle states (x, v, C, F) at every frame. Gradients of any scalar function of those states flow back to the
+initial positions and velocities, the material parameters and the boundary parameters.
+
+Memory stays bounded on long rollouts: the forward pass keeps one state snapshot per chunk of steps; the backward pass
+recomputes one chunk at a time with Warp's tape and runs its adjoint. The last chunk's tape is kept from the forward
+pass, so a rollout that fits in one chunk is never recomputed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+import warp as wp
+from tqdm.auto import tqdm
+
+from rheo.physics import kernels
+from rheo.physics.boundaries import Collider, pack
+from rheo.physics.materials import Material, MaterialError
+
+logger = logging.getLogger(__name__)
+
+
+class SimulationError(RuntimeError):
+    """A rollout that cannot be run as asked."""
+
+
+class SimulationUnstable(SimulationError):
+    """The simulation blew up even at the smallest allowed time step."""
+
+
+class _Unstable(Exception):
+    def __init__(self, step: int) -> None:
+        super().__init__(step)
+        self.step = step
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """Particle states at every frame: x, v of shape (frames + 1, N, 3); C, F of shape (frames + 1, N, 3, 3)."""
+
+    x: torch.Tensor
+    v: torch.Tensor
+    C: torch.Tensor
+    F: torch.Tensor
+    times: torch.Tensor
+    dt: float
+    substeps: int
+
+
+class Simulator:
+    """A 3D MLS-MPM simulator on the cube [0, domain_size]^3 with ``resolution`` cells per axis.
+
+    ``gravity`` is a vector in m/s^2 (z up). Particles must stay ``kernels.BOUND`` cells away from the domain faces,
+    which act as slip walls. ``checkpoint_mb`` bounds the memory kept for the backward pass.
+    """
+
+    def __init__(self, material: Material, *, resolution: int = 32, domain_size: float = 1.0,
+                 colliders: tuple[Collider, ...] | list[Collider] = (), gravity=(0.0, 0.0, -9.8),
+                 dtype: torch.dtype = torch.float32, cfl: float = 0.4, max_halvings: int = 4,
+                 checkpoint_mb: float = 1024.0) -> None:
+        if not isinstance(material, Material):
+            raise MaterialError(f"expected a Material, got {material!r}")
+        if not (isinstance(resolution, int) and resolution >= 2 * kernels.BOUND + 2):
+            raise SimulationError(f"grid resolution {resolution!r} must be an integer >= {2 * kernels.BOUND + 2}")
+        if not (math.isfinite(domain_size) and domain_size > 0):
+            raise SimulationError(f"domain size {domain_size!r} must be finite and > 0")
+        if not (0 < cfl <= 1):
+            raise SimulationError(f"CFL number {cfl!r} must lie in (0, 1]")
+        gravity = tuple(float(g) for g in gravity)
+        if len(gravity) != 3 or not all(math.isfinite(g) for g in gravity):
+            raise SimulationError(f"gravity {gravity!r} must be three finite numbers")
+        self.material = material
+        self.resolution = resolution
+        self.domain_size = float(domain_size)
+        self.dx = self.domain_size / resolution
+        self.colliders = tuple(colliders)
+        self.collider_arrays = pack(self.colliders)
+        self.gravity = gravity
+        self.dtype = dtype
+        self.scalar = kernels.scalar_type(dtype)
+        self.cfl = cfl
+        self.max_halvings = max_halvings
+        self.checkpoint_mb = checkpoint_mb
+        wp.init()
+        self.kernels = kernels.build(self.scalar)
+        self._free_buffers: list[_Buffers] = []
+
+    # ------------------------------------------------------------------ set-up helpers
+
+    def material_parameters(self) -> torch.Tensor:
+        return self.material.parameters(self.dtype)
+
+    def boundary_parameters(self) -> torch.Tensor:
+        return self.collider_arrays.parameters.to(self.dtype)
+
+    def time_step(self, frame_dt: float, max_speed: float, material: Material | None = None) -> tuple[float, int]:
+        """The largest step that divides the frame interval and obeys the CFL and viscous limits."""
+        material = material or self.material
+        dt_max = min(self.cfl * self.dx / (material.wave_speed() + max_speed), material.diffusive_time_step(self.dx))
+        substeps = max(1, math.ceil(frame_dt / dt_max - 1e-9))
+        return frame_dt / substeps, substeps
+
+    def bytes_per_step(self, n_particles: int) -> int:
+        """Memory the backward pass keeps per step: particle state, grid, and their gradients."""
+        size = 8 if self.dtype == torch.float64 else 4
+        state = n_particles * 24 * size
+        grid = self.resolution**3 * 7 * size
+        return 2 * (state + grid)
+
+    def _acquire(self, n: int, steps: int, requires_grad: bool) -> _Buffers:
+        """Per-step arrays, reused across rollouts of one size (allocating them costs about as much as a step).
+        A rollout holds its buffers until its backward pass, so rollouts can be combined in one loss."""
+        key = (n, steps if requires_grad else 0, requires_grad)
+        for i, buf in enumerate(self._free_buffers):
+            if buf.key == key:
+                return self._free_buffers.pop(i)
+        return _Buffers(self, n, steps, requires_grad)
+
+    def _release(self, buf: _Buffers) -> None:
+        self._free_buffers = [buf, *self._free_buffers[:1]]
+
+    def _check_particles(self, x0: torch.Tensor) -> None:
+        if x0.ndim != 2 or x0.shape[1] != 3 or x0.shape[0] == 0:
+            raise SimulationError(f"initial positions must have shape (N, 3) with N > 0, got {tuple(x0.shape)}")
+        if not torch.isfinite(x0).all():
+            raise SimulationError("initial positions contain NaN or infinite values")
+        lo, hi = kernels.BOUND * self.dx, self.domain_size - kernels.BOUND * self.dx
+        bad = ((x0 < lo) | (x0 > hi)).any(dim=1)
+        if bad.any():
+            i = int(torch.nonzero(bad)[0])
+            raise SimulationError(
+                f"{int(bad.sum())} particle(s) lie outside the simulation domain, e.g. particle {i} at "
+                f"{x0[i].tolist()}: all coordinates must lie in [{lo:.4g}, {hi:.4g}] m "
+                f"(domain {self.domain_size:g} m, {kernels.BOUND} boundary cells of {self.dx:.4g} m)")
+
+    # ------------------------------------------------------------------ rollout
+
+    def rollout(self, x0: torch.Tensor, v0: torch.Tensor, *, frames: int, frame_dt: float, particle_volume: float,
+                material_params: torch.Tensor | None = None, boundary_params: torch.Tensor | None = None,
+                dt: float | None = None, progress: bool = False) -> Trajectory:
+        """Simulate ``frames`` frames of ``frame_dt`` seconds from positions ``x0`` (N, 3) and velocity ``v0``.
+
+        ``v0`` is one vector (3,) or one per particle (N, 3). ``material_params`` (ordered as the material's
+        ``parameter_names``) and ``boundary_params`` (one row [friction, vx, vy, vz] per collider) default to the
+        values the simulator was built with. Without ``dt`` the step comes from the CFL limit; an unstable run is
+        retried at half the step, up to ``max_halvings`` times.
+        """
+        x0 = x0.to(self.dtype)
+        self._check_particles(x0.detach())
+        if not (isinstance(frames, int) and frames >= 1):
+            raise SimulationError(f"frames = {frames!r} must be an integer >= 1")
+        if not (math.isfinite(frame_dt) and frame_dt > 0):
+            raise SimulationError(f"frame interval {frame_dt!r} s must be finite and > 0")
+        if not (math.isfinite(particle_volume) and particle_volume > 0):
+            raise SimulationError(f"particle volume {particle_volume!r} m^3 must be finite and > 0")
+        v0 = v0.to(self.dtype)
+        if v0.shape == (3,):
+            v0 = v0.expand_as(x0)
+        if v0.shape != x0.shape or not torch.isfinite(v0).all():
+            raise SimulationError(f"initial velocity must be finite with shape (3,) or {tuple(x0.shape)}, "
+                                  f"got {tuple(v0.shape)}")
+        mat = self.material_parameters() if material_params is None else material_params.to(self.dtype)
+        try:
+            material = dataclasses.replace(self.material, **dict(zip(self.material.parameter_names,
+                                                                        mat.detach().tolist(), strict=True)))
+        except (TypeError, ValueError) as err:
+            raise MaterialError(f"material parameters {mat.detach().tolist()} for "
+                                f"{self.material.parameter_names}: {err}") from err
+        bnd = self.boundary_parameters() if boundary_params is None else boundary_params.to(self.dtype)
+        if bnd.shape != (len(self.colliders), kernels.N_BOUNDARY_PARAMS) or not torch.isfinite(bnd).all():
+            raise SimulationError(f"boundary parameters must be finite with shape ({len(self.colliders)}, 4)")
+        if (bnd[:, kernels.B_FRICTION] < 0).any():
+            raise SimulationError(f"friction coefficients {bnd[:, 0].tolist()} must be >= 0")
+        if dt is None:
+            speed = float(v0.detach().norm(dim=-1).max()) + max(bnd[:, 1:].detach().norm(dim=-1).tolist(), default=0.0)
+            speed += math.sqrt(2.0 * float(np.linalg.norm(self.gravity)) * self.domain_size)
+            dt, substeps = self.time_step(frame_dt, speed, material)
+        else:
+            substeps = max(1, round(frame_dt / dt))
+            dt = frame_dt / substeps
+        kernel_mat = material.kernel_vector(mat)
+        for attempt in range(self.max_halvings + 1):
+            run = _Run(self, material, dt, substeps, frames, particle_volume, progress)
+            try:
+                x, v, C, F = _RolloutFunction.apply(run, x0, v0, kernel_mat, bnd)
+                break
+            except _Unstable as err:
+                if attempt == self.max_halvings:
+                    raise SimulationUnstable(
+                        f"simulation unstable at step {err.step} (t = {err.step * dt:.4g} s): a particle moved more "
+                        f"than one cell ({self.dx:.4g} m) in a step or became NaN, even at dt = {dt:.3g} s, the "
+                        f"smallest allowed step ({self.max_halvings} halvings)") from None
+                logger.warning("simulation unstable at step %d (dt = %.3g s); retrying at dt = %.3g s",
+                               err.step, dt, dt / 2)
+                dt, substeps = dt / 2, substeps * 2
+        times = torch.arange(frames + 1, dtype=self.dtype) * frame_dt
+        return Trajectory(x=x, v=v, C=C, F=F, times=times, dt=dt, substeps=substeps)
+
+
+class _Buffers:
+    """Per-step particle and grid arrays of one chunk (two ping-pong states when no gradient is needed)."""
+
+    def __init__(self, sim: Simulator, n: int, steps: int, requires_grad: bool) -> None:
+        k, res, s = sim.kernels, sim.resolution, sim.scalar
+        self.key = (n, steps if requires_grad else 0, requires_grad)
+        states = steps + 1 if requires_grad else 2
+        grids = steps if requires_grad else 1
+
+        def alloc(count: int, shape, dtype) -> list[wp.array]:
+            return [wp.zeros(shape, dtype=dtype, requires_grad=requires_grad) for _ in range(count)]
+
+        self.x = alloc(states, n, k.vec3)
+        self.v = alloc(states, n, k.vec3)
+        self.C = alloc(states, n, k.mat33)
+        self.F = alloc(states, n, k.mat33)
+        self.m = alloc(grids, (res, res, res), s)
+        self.mv = alloc(grids, (res, res, res), k.vec3)
+        self.gv = alloc(grids, (res, res, res), k.vec3)
+
+    def state(self, i: int) -> tuple[wp.array, wp.array, wp.array, wp.array]:
+        i %= len(self.x)
+        return self.x[i], self.v[i], self.C[i], self.F[i]
+
+    def zero_grads(self) -> None:
+        for group in (self.x, self.v, self.C, self.F, self.m, self.mv, self.gv):
+            for a in group:
+                a.grad.zero_()
+
+
+class _Run:
+    """One rollout: its forward pass, checkpoints and backward pass."""
+
+    def __init__(self, sim: Simulator, material: Material, dt: float, substeps: int, frames: int,
+                 particle_volume: float, progress: bool) -> None:
+        self.sim, self.material, self.dt, self.substeps, self.frames = sim, material, dt, substeps, frames
+        self.particle_volume = particle_volume
+        self.progress = progress
+        self.steps = frames * substeps
+        ca = sim.collider_arrays
+        s = sim.scalar
+        self.shapes = wp.array(ca.shapes, dtype=int)
+        self.laws = wp.array(ca.laws, dtype=int)
+        self.geom = wp.array(np.asarray(ca.geometry, dtype=np.float64).reshape(-1, kernels.N_GEOM), dtype=s)
+        self.timing = wp.array(np.asarray(ca.timing, dtype=np.float64).reshape(-1, 2), dtype=s)
+        self.unstable = wp.zeros(1, dtype=int)
+        self.backward_done = False
+
+    def _to_wp(self, t: torch.Tensor, dtype) -> wp.array:
+        return wp.from_torch(t.detach().contiguous(), dtype=dtype)
+
+    def _step(self, buf: _Buffers, i: int, grid: int, step: int) -> None:
+        k, sim, s = self.sim.kernels, self.sim, self.sim.scalar
+        x, v, C, F = buf.state(i)
+        x1, v1, C1, F1 = buf.state(i + 1)
+        m, mv, gv = buf.m[grid], buf.mv[grid], buf.gv[grid]
+        m.zero_()
+        mv.zero_()
+        inv_dx = 1.0 / sim.dx
+        wp.launch(k.p2g, dim=len(x), inputs=[x, v, C, F, self.mat, self.material.model, s(self.particle_volume),
+                                             s(self.dt), s(inv_dx)], outputs=[F1, m, mv])
+        wp.launch(k.grid_update, dim=m.shape, inputs=[m, mv, s(self.dt), s(step * self.dt), s(sim.dx),
+                                                      k.vec3(*sim.gravity), self.shapes, self.laws, self.geom,
+                                                      self.timing, self.bnd], outputs=[gv])
+        wp.launch(k.g2p, dim=len(x), inputs=[x, gv, s(self.dt), s(inv_dx)], outputs=[x1, v1, C1, self.unstable])
+
+    def _run_chunk(self, buf: _Buffers, start: int, length: int, record: list | None, bar) -> wp.Tape | None:
+        """Advance ``length`` steps from buffer state 0; record frames into ``record`` if given."""
+        tape = wp.Tape() if self.requires_grad else None
+        for i in range(length):
+            step = start + i
+            if tape is not None:
+                with tape:
+                    self._step(buf, i, i, step)
+            else:
+                self._step(buf, i, 0, step)
+            if (step + 1) % self.substeps == 0:
+                if self.unstable.numpy()[0]:
+                    raise _Unstable(step)
+                if record is not None:
+                    frame = (step + 1) // self.substeps
+                    for out, arr in zip(record, buf.state(i + 1), strict=True):
+                        out[frame].copy_(wp.to_torch(arr).reshape(out[frame].shape))
+                if bar is not None:
+                    bar.update(1)
+        return tape
+
+    def _load(self, buf: _Buffers, state: tuple[torch.Tensor, ...]) -> None:
+        for arr, t in zip(buf.state(0), state, strict=True):
+            wp.to_torch(arr).copy_(t.reshape(wp.to_torch(arr).shape))
+
+    def _save(self, buf: _Buffers, i: int) -> tuple[torch.Tensor, ...]:
+        return tuple(wp.to_torch(a).clone() for a in buf.state(i))
+
+    def forward(self, x0: torch.Tensor, v0: torch.Tensor, mat: torch.Tensor, bnd: torch.Tensor,
+                requires_grad: bool) -> tuple[torch.Tensor, ...]:
+        sim = self.sim
+        n = x0.shape[0]
+        self.requires_grad = requires_grad
+        self.mat = wp.array(mat.detach().cpu().numpy(), dtype=sim.scalar, requires_grad=requires_grad)
+        self.bnd = wp.array(bnd.detach().cpu().numpy().reshape(-1, kernels.N_BOUNDARY_PARAMS), dtype=sim.scalar,
+                            requires_grad=requires_grad)
+        budget = max(1, int(sim.checkpoint_mb * 2**20 // sim.bytes_per_step(n)))
+        self.chunk = min(self.steps, budget) if requires_grad else self.steps
+        self.buf = sim._acquire(n, self.chunk, requires_grad)
+        eye = torch.eye(3, dtype=sim.dtype).expand(n, 3, 3)
+        state0 = (x0.detach(), v0.detach(), torch.zeros(n, 3, 3, dtype=sim.dtype), eye)
+        record = [torch.empty((self.frames + 1, *t.shape), dtype=sim.dtype) for t in state0]
+        for out, t in zip(record, state0, strict=True):
+            out[0].copy_(t)
+        self.snapshots: dict[int, tuple[torch.Tensor, ...]] = {}
+        self._load(self.buf, state0)
+        bar = tqdm(total=self.frames, desc="simulate", unit="frame", leave=False) if self.progress else None
+        try:
+            for start in range(0, self.steps, self.chunk):
+                length = min(self.chunk, self.steps - start)
+                if start > 0:
+                    self._load(self.buf, self._save(self.buf, self.last_length))
+                if requires_grad and start + length < self.steps:
+                    self.snapshots[start] = self._save(self.buf, 0)
+                self.tape = self._run_chunk(self.buf, start, length, record, bar)
+                self.last_length = length
+        finally:
+            if bar is not None:
+                bar.close()
+        if not requires_grad:
+            sim._release(self.buf)
+            self.buf = None
+        return tuple(record)
+
+    def backward(self, grads: tuple[torch.Tensor | None, ...]) -> tuple[torch.Tensor, ...]:
+        if self.backward_done:
+            raise SimulationError("a rollout can be differentiated once; run it again for a second backward pass")
+        self.backward_done = True
+        sim, buf = self.sim, self.buf
+        n = len(buf.x[0])
+        grads = tuple(torch.zeros((self.frames + 1, n, *shape), dtype=sim.dtype) if g is None else g
+                      for g, shape in zip(grads, ((3,), (3,), (3, 3), (3, 3)), strict=True))
+        starts = list(range(0, self.steps, self.chunk))
+        adjoint: tuple[torch.Tensor, ...] | None = None
+        for start in reversed(starts):
+            length = min(self.chunk, self.steps - start)
+            if start != starts[-1]:
+                self._load(buf, self.snapshots.pop(start))
+                self.tape = self._run_chunk(buf, start, length, None, None)
+            buf.zero_grads()
+            for i in range(1, length + 1):
+                step = start + i
+                seeds = []
+                if step % self.substeps == 0:
+                    seeds.append(tuple(g[step // self.substeps] for g in grads))
+                if i == length and adjoint is not None:
+                    seeds.append(adjoint)
+                for seed in seeds:
+                    for arr, g in zip(buf.state(i), seed, strict=True):
+                        target = wp.to_torch(arr.grad)
+                        target += g.reshape(target.shape).to(sim.dtype)
+            self.tape.backward()
+            adjoint = tuple(wp.to_torch(a.grad).clone() for a in buf.state(0))
+            self.tape = None
+        gx0 = adjoint[0] + grads[0][0]
+        gv0 = adjoint[1] + grads[1][0]
+        gmat = wp.to_torch(self.mat.grad).clone()
+        gbnd = wp.to_torch(self.bnd.grad).clone()
+        sim._release(buf)
+        self.buf = None
+        return gx0, gv0, gmat, gbnd
+
+
+class _RolloutFunction(torch.autograd.Function):
+    @staticmethod
+    def forward(ctx, run: _Run, x0, v0, mat, bnd):
+        ctx.run = run
+        return run.forward(x0, v0, mat, bnd, requires_grad=any(ctx.needs_input_grad[1:]))
+
+    @staticmethod
+    def backward(ctx, gx, gv, gC, gF):
+        gx0, gv0, gmat, gbnd = ctx.run.backward((gx, gv, gC, gF))
+        return None, gx0, gv0, gmat, gbnd
