@@ -227,9 +227,11 @@ def build(scalar: type) -> SimpleNamespace:
         out[i] = hb_excess(trial[i], relax, K, n)
 
     @wp.func
-    def stencil(x: vec3, inv_dx: scalar):
+    def stencil(x: vec3, inv_dx: scalar, n: int):
+        # Clamped so that a runaway particle (flagged by g2p) never indexes outside the grid.
         base_f = x * inv_dx - vec3(half, half, half)
-        base = wp.vec3i(int(wp.floor(base_f[0])), int(wp.floor(base_f[1])), int(wp.floor(base_f[2])))
+        base = wp.vec3i(wp.clamp(int(wp.floor(base_f[0])), 0, n - 3), wp.clamp(int(wp.floor(base_f[1])), 0, n - 3),
+                        wp.clamp(int(wp.floor(base_f[2])), 0, n - 3))
         fx = x * inv_dx - vec3(scalar(base[0]), scalar(base[1]), scalar(base[2]))
         w0 = half * wp.cw_mul(vec3(scalar(1.5)) - fx, vec3(scalar(1.5)) - fx)
         d1 = fx - vec3(one)
@@ -256,7 +258,7 @@ def build(scalar: type) -> SimpleNamespace:
         p_mass = mat[P_RHO] * p_vol
         affine = (-dt * p_vol * scalar(4.0) * inv_dx * inv_dx) * tau + p_mass * Cp
         mv = p_mass * v[p]
-        base, fx, W = stencil(x[p], inv_dx)
+        base, fx, W = stencil(x[p], inv_dx, grid_m.shape[0])
         dx = one / inv_dx
         for i in range(3):
             for j in range(3):
@@ -368,7 +370,7 @@ def build(scalar: type) -> SimpleNamespace:
             x_out: wp.array(dtype=vec3), v_out: wp.array(dtype=vec3), C_out: wp.array(dtype=mat33),
             unstable: wp.array(dtype=int)):
         p = wp.tid()
-        base, fx, W = stencil(x[p], inv_dx)
+        base, fx, W = stencil(x[p], inv_dx, grid_v.shape[0])
         dx = one / inv_dx
         new_v = vec3()
         new_C = mat33()

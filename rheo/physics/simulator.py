@@ -281,9 +281,9 @@ class _Run:
                     self._step(buf, i, i, step)
             else:
                 self._step(buf, i, 0, step)
+            if self.unstable.numpy()[0]:
+                raise _Unstable(step)
             if (step + 1) % self.substeps == 0:
-                if self.unstable.numpy()[0]:
-                    raise _Unstable(step)
                 if record is not None:
                     frame = (step + 1) // self.substeps
                     for out, arr in zip(record, buf.state(i + 1), strict=True):
