@@ -38,7 +38,7 @@ def test_bad_material_parameters_in_a_rollout(override, message):
 def test_bad_colliders_and_settings():
     with pytest.raises(BoundaryError, match="unknown contact law 'glue'"):
         Floor(contact="glue")
-    with pytest.raises(BoundaryError, match="friction coefficient -0.1 must be finite and >= 0"):
+    with pytest.raises(BoundaryError, match=r"friction coefficient -0\.1 must be finite and >= 0"):
         Floor(contact="friction", friction=-0.1)
     with pytest.raises(SimulationError, match="grid resolution 4 must be an integer >= 8"):
         Simulator(HerschelBulkley(), resolution=4)
