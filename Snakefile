@@ -1,0 +1,19 @@
+# rheo: Herschel-Bulkley rheology from video through differentiable simulation.
+from snakemake.utils import min_version, validate
+
+min_version("9.0")
+
+
+configfile: "config/config.yaml"
+
+
+validate(config, "workflow/schemas/config.schema.yaml")
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/thesis.smk"
+
+
+rule all:
+    input:
+        "results/thesis/collapse.html",

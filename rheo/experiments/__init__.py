@@ -1,0 +1,1 @@
+"""Scripted virtual experiments (column collapse of the thesis' forward tables)."""

@@ -1,0 +1,1 @@
+"""Self-contained HTML reports: tables, figures embedded as PNG."""

@@ -1,0 +1,13 @@
+# Shared helpers and wildcard constraints.
+
+wildcard_constraints:
+    number=r"[0-9.eE+-]+",
+
+
+def collapse_config():
+    return config["thesis"]["collapse"]
+
+
+def table_rows(table):
+    """Row keys of a thesis table as strings (the wildcard values)."""
+    return [str(float(k)) for k in collapse_config()[table]["rows"]]

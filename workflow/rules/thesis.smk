@@ -1,0 +1,62 @@
+# Thesis Tables 4.1 and 4.2: column collapse, elastic constants calibrated on Table 4.1, Table 4.2 predicted.
+
+
+rule thesis_calibration_run:
+    output:
+        "results/thesis/calibration/mu{mu}/sigma_y{sigma_y}.json",
+    log:
+        "logs/thesis/calibration/mu{mu}/sigma_y{sigma_y}.log",
+    benchmark:
+        "benchmarks/thesis/calibration/mu{mu}/sigma_y{sigma_y}.tsv"
+    params:
+        setup=collapse_config(),
+    script:
+        "../../stages/thesis_collapse_run.py"
+
+
+rule thesis_calibrate:
+    input:
+        expand(
+            "results/thesis/calibration/mu{mu}/sigma_y{sigma_y}.json",
+            mu=[str(float(m)) for m in collapse_config()["mu_candidates"]],
+            sigma_y=table_rows("table_4_1"),
+        ),
+    output:
+        "results/thesis/calibration.json",
+    log:
+        "logs/thesis/calibrate.log",
+    params:
+        setup=collapse_config(),
+    script:
+        "../../stages/thesis_calibrate.py"
+
+
+rule thesis_predict:
+    input:
+        calibration="results/thesis/calibration.json",
+    output:
+        "results/thesis/prediction/ratio{ratio}.json",
+    log:
+        "logs/thesis/prediction/ratio{ratio}.log",
+    benchmark:
+        "benchmarks/thesis/prediction/ratio{ratio}.tsv"
+    params:
+        setup=collapse_config(),
+    script:
+        "../../stages/thesis_collapse_run.py"
+
+
+rule thesis_collapse_report:
+    input:
+        calibration="results/thesis/calibration.json",
+        calibration_runs=rules.thesis_calibrate.input,
+        predictions=expand("results/thesis/prediction/ratio{ratio}.json", ratio=table_rows("table_4_2")),
+    output:
+        csv="results/thesis/collapse.csv",
+        html="results/thesis/collapse.html",
+    log:
+        "logs/thesis/collapse_report.log",
+    params:
+        setup=collapse_config(),
+    script:
+        "../../stages/thesis_collapse_report.py"
