@@ -29,3 +29,8 @@ def write_json_atomic(path: str | os.PathLike, data) -> None:
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:
     write_atomic(path, lambda p: p.write_text(text))
+
+
+def read_json(path: str | os.PathLike):
+    with open(path) as f:
+        return json.load(f)

@@ -1,10 +1,9 @@
 """Pick the elastic constants that best reproduce thesis Table 4.1 (RMS relative height difference)."""
 
-import json
 import math
 from collections import defaultdict
 
-from rheo.io import write_json_atomic
+from rheo.io import read_json, write_json_atomic
 from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -13,7 +12,7 @@ thesis = {float(k): v for k, v in smk.params.setup["table_4_1"]["rows"].items()}
 errors = defaultdict(list)
 lams = {}
 for path in smk.input:
-    run = json.loads(open(path).read())
+    run = read_json(path)
     errors[run["mu"]].append((run["height"] - thesis[run["sigma_y"]]) / thesis[run["sigma_y"]])
     lams[run["mu"]] = run["lam"]
 rms = {mu: math.sqrt(sum(e * e for e in errs) / len(errs)) for mu, errs in errors.items()}

@@ -1,17 +1,16 @@
 """Collect the column-collapse runs into collapse.csv and collapse.html (thesis Tables 4.1, 4.2, Figs 4.2, 4.4)."""
 
-import json
 
-from rheo.io import write_text_atomic
+from rheo.io import read_json, write_text_atomic
 from rheo.report.collapse import render, rows_from_runs, to_csv
 from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
 cfg = smk.params.setup
-calibration = json.loads(open(smk.input.calibration).read())
-runs_41 = [r for r in (json.loads(open(p).read()) for p in smk.input.calibration_runs) if r["mu"] == calibration["mu"]]
-runs_42 = [json.loads(open(p).read()) for p in smk.input.predictions]
+calibration = read_json(smk.input.calibration)
+runs_41 = [r for r in (read_json(p) for p in smk.input.calibration_runs) if r["mu"] == calibration["mu"]]
+runs_42 = [read_json(p) for p in smk.input.predictions]
 table_41 = rows_from_runs("4.1", runs_41, {float(k): v for k, v in cfg["table_4_1"]["rows"].items()},
                           key=lambda r: r["sigma_y"])
 table_42 = rows_from_runs("4.2", runs_42, {float(k): v for k, v in cfg["table_4_2"]["rows"].items()},

@@ -1,11 +1,10 @@
 """One column-collapse simulation of the thesis' tables: a calibration run (wildcards mu, sigma_y: Table 4.1) or a
 prediction (wildcard ratio = eta / sigma_y: Table 4.2, elastic constants from the calibration)."""
 
-import json
 import time
 
 from rheo.experiments.collapse import CollapseSetup, simulate_collapse, thesis_material
-from rheo.io import write_json_atomic
+from rheo.io import read_json, write_json_atomic
 from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -13,8 +12,8 @@ log = setup_logging(smk.log[0])
 cfg = smk.params.setup
 setup = CollapseSetup(**{k: cfg[k] for k in ("resolution", "radius", "height", "density", "gravity", "duration",
                                              "frames")})
-if "ratio" in smk.wildcards.keys():
-    calibration = json.loads(open(smk.input.calibration).read())
+if hasattr(smk.wildcards, "ratio"):
+    calibration = read_json(smk.input.calibration)
     mu, lam = calibration["mu"], calibration["lam"]
     sigma_y = float(cfg["table_4_2"]["sigma_y"])
     eta = float(smk.wildcards.ratio) * sigma_y

@@ -58,3 +58,19 @@ def test_slump_matches_pashias(tau_prime):
     slump = 1 - 2 * tau_prime * (1 - math.log(2 * tau_prime))
     expected = H * (1 - slump)
     assert final_height == pytest.approx(expected, rel=0.2)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("tau_prime", [0.1, 0.15, 0.2, 0.3, 0.4])
+def test_slump_matches_pashias_fine_grid(tau_prime):
+    """The slump check on a 48^3 grid over more yield stresses (minutes)."""
+    res, H, rho, g = 48, 0.25, 1000.0, 9.8
+    floor = 4 / res
+    material = HerschelBulkley(tau_y=tau_prime * rho * g * H, K=200.0, n=1.0, mu=2.0e4, lam=2.0e4, density=rho)
+    sim = Simulator(material, resolution=res, colliders=[Floor(height=floor, contact="slip")])
+    spacing = sim.dx / 2
+    x0, vol = cylinder((0.5, 0.5), floor, H / 2, H, spacing, dtype=torch.float32)
+    tr = sim.rollout(x0, torch.zeros(3), frames=20, frame_dt=0.1, particle_volume=vol)
+    final_height = float(tr.x[-1, :, 2].max()) + spacing / 2 - floor
+    expected = H * 2 * tau_prime * (1 - math.log(2 * tau_prime))
+    assert final_height == pytest.approx(expected, rel=0.2)
