@@ -51,6 +51,7 @@ def build(scalar: type) -> SimpleNamespace:
     """Compile-ready kernels for one scalar type (``wp.float32`` or ``wp.float64``)."""
     vec3 = wp.types.vector(3, scalar)
     mat33 = wp.types.matrix((3, 3), scalar)
+    mat63 = wp.types.matrix((6, 3), scalar)
     zero = scalar(0.0)
     one = scalar(1.0)
     half = scalar(0.5)
@@ -79,50 +80,6 @@ def build(scalar: type) -> SimpleNamespace:
             return wp.exp(b) * (one + half * d + d2 / scalar(6.0) + d2 * d / scalar(24.0)
                                 + d2 * d2 / scalar(120.0) + d2 * d2 * d / scalar(720.0))
         return (wp.exp(a) - wp.exp(b)) / d
-
-    @wp.func
-    def sym_log(b: mat33) -> mat33:
-        """Matrix logarithm of a symmetric positive definite matrix."""
-        Q = mat33()
-        d = vec3()
-        wp.eig3(b, Q, d)
-        L = wp.diag(vec3(wp.log(wp.max(d[0], min_eig)), wp.log(wp.max(d[1], min_eig)),
-                         wp.log(wp.max(d[2], min_eig))))
-        return Q * L * wp.transpose(Q)
-
-    @wp.func_grad(sym_log)
-    def adj_sym_log(b: mat33, adj_ret: mat33):
-        # Daleckii-Krein: dL = Q (D o (Q^T db Q)) Q^T with D the divided differences of log.
-        Q = mat33()
-        d = vec3()
-        wp.eig3(b, Q, d)
-        lam = vec3(wp.max(d[0], min_eig), wp.max(d[1], min_eig), wp.max(d[2], min_eig))
-        A = wp.transpose(Q) * (adj_ret + wp.transpose(adj_ret)) * Q * half
-        M = mat33()
-        for i in range(3):
-            for j in range(3):
-                M[i, j] = A[i, j] * log_divided(lam[i], lam[j])
-        wp.adjoint[b] += Q * M * wp.transpose(Q)
-
-    @wp.func
-    def sym_exp(S: mat33) -> mat33:
-        """Matrix exponential of a symmetric matrix."""
-        Q = mat33()
-        d = vec3()
-        wp.eig3(S, Q, d)
-        return Q * wp.diag(vec3(wp.exp(d[0]), wp.exp(d[1]), wp.exp(d[2]))) * wp.transpose(Q)
-
-    @wp.func_grad(sym_exp)
-    def adj_sym_exp(S: mat33, adj_ret: mat33):
-        Q = mat33()
-        d = vec3()
-        wp.eig3(S, Q, d)
-        A = wp.transpose(Q) * (adj_ret + wp.transpose(adj_ret)) * Q * half
-        M = mat33()
-        for i in range(3):
-            for j in range(3):
-                M[i, j] = A[i, j] * exp_divided(d[i], d[j])
-        wp.adjoint[S] += Q * M * wp.transpose(Q)
 
     @wp.func
     def hb_excess(excess_trial: scalar, relax: scalar, K: scalar, n: scalar) -> scalar:
@@ -175,6 +132,116 @@ def build(scalar: type) -> SimpleNamespace:
             wp.adjoint[n] += s * relax * q * wp.log(u / K) * m * m
 
     @wp.func
+    def eigen(b: mat33):
+        Q = mat33()
+        d = vec3()
+        wp.eig3(b, Q, d)
+        return Q, vec3(wp.max(d[0], min_eig), wp.max(d[1], min_eig), wp.max(d[2], min_eig))
+
+    @wp.func
+    def yield_scale(e: vec3, mu: scalar, tau_y: scalar, K: scalar, n: scalar, dt: scalar, model: int) -> scalar:
+        """alpha = |s_new| / |s_trial| of the return mapping (1 below yield)."""
+        t_trial = sqrt2 * mu * wp.sqrt(wp.dot(e, e) + tiny)
+        alpha = one
+        if t_trial > tau_y:
+            t_new = tau_y
+            if model == MODEL_HERSCHEL_BULKLEY:
+                t_new = tau_y + hb_excess(t_trial - tau_y, mu * dt, K, n)
+            alpha = t_new / t_trial
+        return alpha
+
+    @wp.func
+    def hencky_return(b: mat33, mu: scalar, lam: scalar, tau_y: scalar, K: scalar, n: scalar, dt: scalar,
+                      model: int) -> mat63:
+        """Plastic return on Hencky strain from b = Ft Ft^T. Rows 0-2: P with F_new = P Ft; rows 3-5: Kirchhoff
+        stress. One eigen-decomposition; the adjoint below stays finite at repeated eigenvalues."""
+        Q, l = eigen(b)
+        eps = half * vec3(wp.log(l[0]), wp.log(l[1]), wp.log(l[2]))
+        tr = eps[0] + eps[1] + eps[2]
+        e = eps - vec3(third * tr)
+        alpha = yield_scale(e, mu, tau_y, K, n, dt, model)
+        beta = alpha - one
+        kappa = scalar(2.0 / 3.0) * mu + lam
+        QT = wp.transpose(Q)
+        P = Q * wp.diag(vec3(wp.exp(beta * e[0]), wp.exp(beta * e[1]), wp.exp(beta * e[2]))) * QT
+        T = Q * wp.diag(scalar(2.0) * mu * alpha * e + vec3(kappa * tr)) * QT
+        out = mat63()
+        for i in range(3):
+            for j in range(3):
+                out[i, j] = P[i, j]
+                out[i + 3, j] = T[i, j]
+        return out
+
+    @wp.func_grad(hencky_return)
+    def adj_hencky_return(b: mat33, mu: scalar, lam: scalar, tau_y: scalar, K: scalar, n: scalar, dt: scalar,
+                          model: int, adj_ret: mat63):
+        Q, l = eigen(b)
+        eps = half * vec3(wp.log(l[0]), wp.log(l[1]), wp.log(l[2]))
+        tr = eps[0] + eps[1] + eps[2]
+        e = eps - vec3(third * tr)
+        r = wp.sqrt(wp.dot(e, e) + tiny)
+        t_trial = sqrt2 * mu * r
+        alpha = yield_scale(e, mu, tau_y, K, n, dt, model)
+        beta = alpha - one
+        kappa = scalar(2.0 / 3.0) * mu + lam
+        p = vec3(wp.exp(beta * e[0]), wp.exp(beta * e[1]), wp.exp(beta * e[2]))
+        adj_P = mat33()
+        adj_T = mat33()
+        for i in range(3):
+            for j in range(3):
+                adj_P[i, j] = adj_ret[i, j]
+                adj_T[i, j] = adj_ret[i + 3, j]
+        QT = wp.transpose(Q)
+        Ap = QT * (adj_P + wp.transpose(adj_P)) * Q * half
+        At = QT * (adj_T + wp.transpose(adj_T)) * Q * half
+        # eigenvalue part: tau_i = 2 mu alpha e_i + kappa tr, p_i = exp(beta e_i)
+        t_bar = vec3(At[0, 0], At[1, 1], At[2, 2])
+        p_bar = vec3(Ap[0, 0], Ap[1, 1], Ap[2, 2])
+        sum_t = t_bar[0] + t_bar[1] + t_bar[2]
+        alpha_bar = scalar(2.0) * mu * wp.dot(t_bar, e) + wp.dot(p_bar, wp.cw_mul(p, e))
+        e_bar = scalar(2.0) * mu * alpha * t_bar + beta * wp.cw_mul(p_bar, p)
+        tr_bar = kappa * sum_t
+        mu_bar = scalar(2.0) * alpha * wp.dot(t_bar, e) + scalar(2.0 / 3.0) * tr * sum_t
+        lam_bar = tr * sum_t
+        tau_y_bar = zero
+        K_bar = zero
+        n_bar = zero
+        if t_trial > tau_y:
+            t_new = alpha * t_trial
+            t_new_bar = alpha_bar / t_trial
+            t_trial_bar = -alpha_bar * t_new / (t_trial * t_trial)
+            tau_y_bar = t_new_bar
+            u = t_new - tau_y
+            if model == MODEL_HERSCHEL_BULKLEY and u > zero:
+                relax = mu * dt
+                m = one / n
+                q = wp.pow(u / K, m)
+                s = t_new_bar / (one + relax * m * q / u)
+                t_trial_bar += s
+                tau_y_bar -= s
+                mu_bar -= s * q * dt
+                K_bar = s * relax * m * q / K
+                n_bar = s * relax * q * wp.log(u / K) * m * m
+            mu_bar += t_trial_bar * sqrt2 * r
+            e_bar += (t_trial_bar * sqrt2 * mu / r) * e
+        mean_e_bar = third * (e_bar[0] + e_bar[1] + e_bar[2])
+        M = mat33()
+        for i in range(3):
+            for j in range(3):
+                if i == j:
+                    M[i, i] = (e_bar[i] - mean_e_bar + tr_bar) * half / l[i]
+                else:
+                    ld = log_divided(l[i], l[j])
+                    M[i, j] = At[i, j] * mu * alpha * ld + Ap[i, j] * exp_divided(beta * e[i], beta * e[j]) * beta \
+                        * half * ld
+        wp.adjoint[b] += Q * M * QT
+        wp.adjoint[mu] += mu_bar
+        wp.adjoint[lam] += lam_bar
+        wp.adjoint[tau_y] += tau_y_bar
+        wp.adjoint[K] += K_bar
+        wp.adjoint[n] += n_bar
+
+    @wp.func
     def constitutive(F: mat33, C: mat33, mat: wp.array(dtype=scalar), model: int, dt: scalar):
         """Trial deformation, plastic return and Kirchhoff stress. Returns (F_new, tau)."""
         I = wp.identity(3, dtype=scalar)
@@ -196,19 +263,10 @@ def build(scalar: type) -> SimpleNamespace:
             tau = mu * (Ft * wp.transpose(Ft) - I) + lam * wp.log(J) * I
         else:
             # Hencky strain; von Mises yield on the equivalent shear stress |s| / sqrt(2).
-            eps = half * sym_log(Ft * wp.transpose(Ft))
-            tr = wp.trace(eps)
-            e = eps - third * tr * I
-            t_trial = sqrt2 * mu * wp.sqrt(wp.ddot(e, e) + tiny)
-            tau_y = mat[P_TAU_Y]
-            alpha = one
-            if t_trial > tau_y:
-                t_new = tau_y
-                if model == MODEL_HERSCHEL_BULKLEY:
-                    t_new = tau_y + hb_excess(t_trial - tau_y, mu * dt, mat[P_K], mat[P_N])
-                alpha = t_new / t_trial
-                F_new = sym_exp((alpha - one) * e) * Ft
-            tau = scalar(2.0) * mu * alpha * e + (scalar(2.0 / 3.0) * mu + lam) * tr * I
+            PT = hencky_return(Ft * wp.transpose(Ft), mu, lam, mat[P_TAU_Y], mat[P_K], mat[P_N], dt, model)
+            P = mat33(PT[0, 0], PT[0, 1], PT[0, 2], PT[1, 0], PT[1, 1], PT[1, 2], PT[2, 0], PT[2, 1], PT[2, 2])
+            tau = mat33(PT[3, 0], PT[3, 1], PT[3, 2], PT[4, 0], PT[4, 1], PT[4, 2], PT[5, 0], PT[5, 1], PT[5, 2])
+            F_new = P * Ft
         return F_new, tau
 
     @wp.kernel
