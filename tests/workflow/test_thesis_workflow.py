@@ -1,4 +1,5 @@
-"""End-to-end: the thesis collapse target on a tiny configuration, run by Snakemake in a scratch copy."""
+"""End-to-end: the thesis collapse target on a tiny configuration, run by Snakemake in a scratch copy of the
+workflow whose config/config.yaml is the tiny one."""
 
 import csv
 import os
@@ -20,7 +21,8 @@ TINY = {"thesis": {"collapse": {
 
 def _snakemake(workdir: Path, *args: str) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": str(REPO)}
-    return subprocess.run([sys.executable, "-m", "snakemake", "-j2", "--configfile", "tiny.yaml", *args],
+    executable = shutil.which("snakemake") or str(Path(sys.executable).parent / "snakemake")
+    return subprocess.run([executable, *args, "-j2"],
                           cwd=workdir, env=env, capture_output=True, text=True, timeout=600)
 
 
@@ -28,7 +30,7 @@ def test_collapse_target_runs_and_resumes(tmp_path):
     for item in ("Snakefile", "workflow", "stages", "config"):
         src = REPO / item
         (shutil.copytree if src.is_dir() else shutil.copy)(src, tmp_path / item)
-    (tmp_path / "tiny.yaml").write_text(yaml.safe_dump(TINY))
+    (tmp_path / "config/config.yaml").write_text(yaml.safe_dump(TINY))  # replaces, not merges with, the default
     run = _snakemake(tmp_path, "results/thesis/collapse.html")
     assert run.returncode == 0, run.stderr[-3000:]
     with open(tmp_path / "results/thesis/collapse.csv") as f:
@@ -37,7 +39,8 @@ def test_collapse_target_runs_and_resumes(tmp_path):
     for r in rows:
         # after 0.05 s the column has barely moved: the height is still close to the initial 0.4
         assert 0.3 < float(r["rheo_height"]) < 0.45
-    assert "Figure 4.2" in (tmp_path / "results/thesis/collapse.html").read_text()
+    page = (tmp_path / "results/thesis/collapse.html").read_text()
+    assert "Figures 4.2 and 4.4" in page and page.count("data:image/png;base64,") == 4
     assert (tmp_path / "logs/thesis/calibrate.log").read_text().count("RMS relative difference") == 2
     again = _snakemake(tmp_path, "results/thesis/collapse.html")
     assert again.returncode == 0 and "Nothing to be done" in again.stdout + again.stderr
@@ -48,7 +51,7 @@ def test_bad_config_value_is_refused(tmp_path):
     for item in ("workflow", "stages", "config"):
         shutil.copytree(REPO / item, tmp_path / item)
     bad = {"thesis": {"collapse": {"resolution": 2}}}
-    (tmp_path / "tiny.yaml").write_text(yaml.safe_dump(bad))
+    (tmp_path / "config/config.yaml").write_text(yaml.safe_dump(bad))
     run = _snakemake(tmp_path, "-n", "results/thesis/collapse.html")
     assert run.returncode != 0
     assert "2 is less than the minimum of 8" in run.stdout + run.stderr
