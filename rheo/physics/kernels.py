@@ -151,11 +151,12 @@ def build(scalar: type) -> SimpleNamespace:
         return alpha
 
     @wp.func
-    def hencky_return(b: mat33, mu: scalar, lam: scalar, tau_y: scalar, K: scalar, n: scalar, dt: scalar,
-                      model: int) -> mat63:
-        """Plastic return on Hencky strain from b = Ft Ft^T. Rows 0-2: P with F_new = P Ft; rows 3-5: Kirchhoff
-        stress. One eigen-decomposition; the adjoint below stays finite at repeated eigenvalues."""
-        Q, l = eigen(b)
+    def hencky_return(b: mat33, Q: mat33, l: vec3, mu: scalar, lam: scalar, tau_y: scalar, K: scalar, n: scalar,
+                      dt: scalar, model: int) -> mat63:
+        """Plastic return on Hencky strain from b = Ft Ft^T = Q diag(l) Q^T. Rows 0-2: P with F_new = P Ft; rows 3-5:
+        Kirchhoff stress. The eigen-decomposition (Q, l) is computed beforehand by ``eigen_kernel``, outside the
+        differentiated code: the adjoint below gives the whole derivative with respect to b (Daleckii-Krein divided
+        differences, finite at repeated eigenvalues), so the backward pass never decomposes a matrix."""
         eps = half * vec3(wp.log(l[0]), wp.log(l[1]), wp.log(l[2]))
         tr = eps[0] + eps[1] + eps[2]
         e = eps - vec3(third * tr)
@@ -173,9 +174,8 @@ def build(scalar: type) -> SimpleNamespace:
         return out
 
     @wp.func_grad(hencky_return)
-    def adj_hencky_return(b: mat33, mu: scalar, lam: scalar, tau_y: scalar, K: scalar, n: scalar, dt: scalar,
-                          model: int, adj_ret: mat63):
-        Q, l = eigen(b)
+    def adj_hencky_return(b: mat33, Q: mat33, l: vec3, mu: scalar, lam: scalar, tau_y: scalar, K: scalar,
+                          n: scalar, dt: scalar, model: int, adj_ret: mat63):
         eps = half * vec3(wp.log(l[0]), wp.log(l[1]), wp.log(l[2]))
         tr = eps[0] + eps[1] + eps[2]
         e = eps - vec3(third * tr)
@@ -242,7 +242,7 @@ def build(scalar: type) -> SimpleNamespace:
         wp.adjoint[n] += n_bar
 
     @wp.func
-    def constitutive(F: mat33, C: mat33, mat: wp.array(dtype=scalar), model: int, dt: scalar):
+    def constitutive(F: mat33, C: mat33, mat: wp.array(dtype=scalar), model: int, dt: scalar, Q: mat33, l: vec3):
         """Trial deformation, plastic return and Kirchhoff stress. Returns (F_new, tau)."""
         I = wp.identity(3, dtype=scalar)
         Ft = (I + dt * C) * F
@@ -263,7 +263,7 @@ def build(scalar: type) -> SimpleNamespace:
             tau = mu * (Ft * wp.transpose(Ft) - I) + lam * wp.log(J) * I
         else:
             # Hencky strain; von Mises yield on the equivalent shear stress |s| / sqrt(2).
-            PT = hencky_return(Ft * wp.transpose(Ft), mu, lam, mat[P_TAU_Y], mat[P_K], mat[P_N], dt, model)
+            PT = hencky_return(Ft * wp.transpose(Ft), Q, l, mu, lam, mat[P_TAU_Y], mat[P_K], mat[P_N], dt, model)
             P = mat33(PT[0, 0], PT[0, 1], PT[0, 2], PT[1, 0], PT[1, 1], PT[1, 2], PT[2, 0], PT[2, 1], PT[2, 2])
             tau = mat33(PT[3, 0], PT[3, 1], PT[3, 2], PT[4, 0], PT[4, 1], PT[4, 2], PT[5, 0], PT[5, 1], PT[5, 2])
             F_new = P * Ft
@@ -274,9 +274,21 @@ def build(scalar: type) -> SimpleNamespace:
                        model: int, dt: scalar, F_out: wp.array(dtype=mat33), tau_out: wp.array(dtype=mat33)):
         """The constitutive update alone, for tests and diagnostics."""
         p = wp.tid()
-        F_new, tau = constitutive(F[p], C[p], mat, model, dt)
+        Ft = (wp.identity(3, dtype=scalar) + dt * C[p]) * F[p]
+        Q, l = eigen(Ft * wp.transpose(Ft))
+        F_new, tau = constitutive(F[p], C[p], mat, model, dt, Q, l)
         F_out[p] = F_new
         tau_out[p] = tau
+
+    @wp.kernel
+    def eigen_kernel(F: wp.array(dtype=mat33), C: wp.array(dtype=mat33), dt: scalar, q_out: wp.array(dtype=mat33),
+                     l_out: wp.array(dtype=vec3)):
+        """Eigen-decomposition of the trial b = Ft Ft^T for the Hencky models; launched outside the tape."""
+        p = wp.tid()
+        Ft = (wp.identity(3, dtype=scalar) + dt * C[p]) * F[p]
+        Q, l = eigen(Ft * wp.transpose(Ft))
+        q_out[p] = Q
+        l_out[p] = l
 
     @wp.kernel
     def hb_excess_kernel(trial: wp.array(dtype=scalar), relax: scalar, K: scalar, n: scalar,
@@ -307,11 +319,11 @@ def build(scalar: type) -> SimpleNamespace:
     @wp.kernel
     def p2g(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
             F: wp.array(dtype=mat33), mat: wp.array(dtype=scalar), model: int, p_vol: scalar, dt: scalar,
-            inv_dx: scalar, F_out: wp.array(dtype=mat33), grid_m: wp.array3d(dtype=scalar),
-            grid_mv: wp.array3d(dtype=vec3)):
+            inv_dx: scalar, eig_q: wp.array(dtype=mat33), eig_l: wp.array(dtype=vec3), F_out: wp.array(dtype=mat33),
+            grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3)):
         p = wp.tid()
         Cp = C[p]
-        F_new, tau = constitutive(F[p], Cp, mat, model, dt)
+        F_new, tau = constitutive(F[p], Cp, mat, model, dt, eig_q[p], eig_l[p])
         F_out[p] = F_new
         p_mass = mat[P_RHO] * p_vol
         affine = (-dt * p_vol * scalar(4.0) * inv_dx * inv_dx) * tau + p_mass * Cp
@@ -447,7 +459,7 @@ def build(scalar: type) -> SimpleNamespace:
         C_out[p] = new_C
         x_out[p] = x[p] + dt * new_v
 
-    return SimpleNamespace(vec3=vec3, mat33=mat33, p2g=p2g, grid_update=grid_update, g2p=g2p,
+    return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, p2g=p2g, grid_update=grid_update, g2p=g2p,
                            return_mapping=return_mapping, hb_excess=hb_excess_kernel)
 
 

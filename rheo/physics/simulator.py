@@ -11,6 +11,7 @@ pass, so a rollout that fits in one chunk is never recomputed.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
 import math
@@ -109,11 +110,12 @@ class Simulator:
         return frame_dt / substeps, substeps
 
     def bytes_per_step(self, n_particles: int) -> int:
-        """Memory the backward pass keeps per step: particle state, grid, and their gradients."""
+        """Memory the backward pass keeps per step: particle state, grid, their gradients, the eigen-decomposition."""
         size = 8 if self.dtype == torch.float64 else 4
         state = n_particles * 24 * size
         grid = self.resolution**3 * 7 * size
-        return 2 * (state + grid)
+        eigen = n_particles * 12 * size  # decomposition of the trial strain, no gradient
+        return 2 * (state + grid) + eigen
 
     def _acquire(self, n: int, steps: int, requires_grad: bool) -> _Buffers:
         """Per-step arrays, reused across rollouts of one size (allocating them costs about as much as a step).
@@ -221,6 +223,9 @@ class _Buffers:
         self.v = alloc(states, n, k.vec3)
         self.C = alloc(states, n, k.mat33)
         self.F = alloc(states, n, k.mat33)
+        # eigen-decompositions of the trial strain, inputs of the plastic return (constants for the tape)
+        self.eig_q = [wp.zeros(n, dtype=k.mat33) for _ in range(grids)]
+        self.eig_l = [wp.zeros(n, dtype=k.vec3) for _ in range(grids)]
         self.m = alloc(grids, (res, res, res), s)
         self.mv = alloc(grids, (res, res, res), k.vec3)
         self.gv = alloc(grids, (res, res, res), k.vec3)
@@ -256,31 +261,33 @@ class _Run:
     def _to_wp(self, t: torch.Tensor, dtype) -> wp.array:
         return wp.from_torch(t.detach().contiguous(), dtype=dtype)
 
-    def _step(self, buf: _Buffers, i: int, grid: int, step: int) -> None:
+    def _step(self, buf: _Buffers, i: int, grid: int, step: int, tape: wp.Tape | None) -> None:
         k, sim, s = self.sim.kernels, self.sim, self.sim.scalar
         x, v, C, F = buf.state(i)
         x1, v1, C1, F1 = buf.state(i + 1)
         m, mv, gv = buf.m[grid], buf.mv[grid], buf.gv[grid]
+        eig_q, eig_l = buf.eig_q[grid], buf.eig_l[grid]
         m.zero_()
         mv.zero_()
         inv_dx = 1.0 / sim.dx
-        wp.launch(k.p2g, dim=len(x), inputs=[x, v, C, F, self.mat, self.material.model, s(self.particle_volume),
-                                             s(self.dt), s(inv_dx)], outputs=[F1, m, mv])
-        wp.launch(k.grid_update, dim=m.shape, inputs=[m, mv, s(self.dt), s(step * self.dt), s(sim.dx),
-                                                      k.vec3(*sim.gravity), self.shapes, self.laws, self.geom,
-                                                      self.timing, self.bnd], outputs=[gv])
-        wp.launch(k.g2p, dim=len(x), inputs=[x, gv, s(self.dt), s(inv_dx)], outputs=[x1, v1, C1, self.unstable])
+        if self.material.model in (kernels.MODEL_HERSCHEL_BULKLEY, kernels.MODEL_PLASTICINE):
+            wp.launch(k.eigen, dim=len(x), inputs=[F, C, s(self.dt)], outputs=[eig_q, eig_l])
+        with tape if tape is not None else contextlib.nullcontext():
+            wp.launch(k.p2g, dim=len(x), inputs=[x, v, C, F, self.mat, self.material.model,
+                                                 s(self.particle_volume), s(self.dt), s(inv_dx), eig_q, eig_l],
+                      outputs=[F1, m, mv])
+            wp.launch(k.grid_update, dim=m.shape, inputs=[m, mv, s(self.dt), s(step * self.dt), s(sim.dx),
+                                                          k.vec3(*sim.gravity), self.shapes, self.laws, self.geom,
+                                                          self.timing, self.bnd], outputs=[gv])
+            wp.launch(k.g2p, dim=len(x), inputs=[x, gv, s(self.dt), s(inv_dx)],
+                      outputs=[x1, v1, C1, self.unstable])
 
     def _run_chunk(self, buf: _Buffers, start: int, length: int, record: list | None, bar) -> wp.Tape | None:
         """Advance ``length`` steps from buffer state 0; record frames into ``record`` if given."""
         tape = wp.Tape() if self.requires_grad else None
         for i in range(length):
             step = start + i
-            if tape is not None:
-                with tape:
-                    self._step(buf, i, i, step)
-            else:
-                self._step(buf, i, 0, step)
+            self._step(buf, i, i if tape is not None else 0, step, tape)
             if self.unstable.numpy()[0]:
                 raise _Unstable(step)
             if (step + 1) % self.substeps == 0:
