@@ -10,16 +10,14 @@ smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
 thesis = {float(k): v for k, v in smk.params.setup["table_4_1"]["rows"].items()}
 errors = defaultdict(list)
-lams = {}
 for path in smk.input:
     run = read_json(path)
-    errors[run["mu"]].append((run["height"] - thesis[run["sigma_y"]]) / thesis[run["sigma_y"]])
-    lams[run["mu"]] = run["lam"]
-rms = {mu: math.sqrt(sum(e * e for e in errs) / len(errs)) for mu, errs in errors.items()}
-for mu in sorted(rms):
-    log.info("mu=%g: RMS relative difference on Table 4.1 = %.3f", mu, rms[mu])
-best = min(rms, key=rms.get)
-log.info("calibrated: mu=%g lam=%g", best, lams[best])
-write_json_atomic(smk.output[0], {"mu": best, "lam": lams[best], "rms_relative_difference": rms[best],
-                                  "candidates": [{"mu": m, "lam": lams[m], "rms_relative_difference": rms[m]}
-                                                 for m in sorted(rms)]})
+    errors[(run["mu"], run["lam"])].append((run["height"] - thesis[run["sigma_y"]]) / thesis[run["sigma_y"]])
+rms = {pair: math.sqrt(sum(e * e for e in errs) / len(errs)) for pair, errs in errors.items()}
+for mu, lam in sorted(rms):
+    log.info("mu=%g lam=%g: RMS relative difference on Table 4.1 = %.3f", mu, lam, rms[mu, lam])
+mu, lam = min(rms, key=rms.get)
+log.info("calibrated: mu=%g lam=%g", mu, lam)
+write_json_atomic(smk.output[0], {"mu": mu, "lam": lam, "rms_relative_difference": rms[mu, lam],
+                                  "candidates": [{"mu": m, "lam": la, "rms_relative_difference": rms[m, la]}
+                                                 for m, la in sorted(rms)]})

@@ -9,7 +9,8 @@ smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
 cfg = smk.params.setup
 calibration = read_json(smk.input.calibration)
-runs_41 = [r for r in (read_json(p) for p in smk.input.calibration_runs) if r["mu"] == calibration["mu"]]
+runs_41 = [r for r in (read_json(p) for p in smk.input.calibration_runs)
+           if (r["mu"], r["lam"]) == (calibration["mu"], calibration["lam"])]
 runs_42 = [read_json(p) for p in smk.input.predictions]
 table_41 = rows_from_runs("4.1", runs_41, {float(k): v for k, v in cfg["table_4_1"]["rows"].items()},
                           key=lambda r: r["sigma_y"])

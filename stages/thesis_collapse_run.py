@@ -19,7 +19,7 @@ if hasattr(smk.wildcards, "ratio"):
     eta = float(smk.wildcards.ratio) * sigma_y
 else:
     mu = float(smk.wildcards.mu)
-    lam = cfg["lam_over_mu"] * mu
+    lam = float(smk.wildcards.lam)
     sigma_y = float(smk.wildcards.sigma_y)
     eta = float(cfg["table_4_1"]["eta"])
 log.info("collapse: sigma_y=%g eta=%g mu=%g lam=%g on a %d^3 grid", sigma_y, eta, mu, lam, setup.resolution)

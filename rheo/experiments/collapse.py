@@ -3,7 +3,7 @@
 The thesis gives (sigma_y, eta) in PAC-NeRF's convention: yield when |s| > sqrt(2/3) sigma_y, and the viscoplastic
 return |s_new| = |s| - delta / (1 + eta / (2 mu dt)). In rheo's shear convention (yield when |s|/sqrt(2) > tau_y, and
 |s_new| = |s| - delta / (1 + K / (mu dt))) the same law is tau_y = sigma_y / sqrt(3) and K = eta / 2.
-The height is that of the column at its axis: the top of the material within half the initial radius of the axis.
+The height is the top of the material above the floor (highest particle plus half a particle spacing).
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ def thesis_material(sigma_y: float, eta: float, mu: float, lam: float, density: 
 
 
 def simulate_collapse(material: HerschelBulkley, setup: CollapseSetup, progress: bool = False) -> dict:
-    """Heights of the column at its axis over time (m), from t = 0 to ``setup.duration``."""
+    """Heights of the material over time (m), from t = 0 to ``setup.duration``."""
     floor = 3.0 / setup.resolution
     sim = Simulator(material, resolution=setup.resolution, colliders=[Floor(height=floor, contact="sticky")],
                     gravity=(0.0, 0.0, -setup.gravity))
@@ -43,8 +43,6 @@ def simulate_collapse(material: HerschelBulkley, setup: CollapseSetup, progress:
     x0, vol = cylinder(center, floor, setup.radius, setup.height, spacing, dtype=torch.float32)
     tr = sim.rollout(x0, torch.zeros(3), frames=setup.frames, frame_dt=setup.duration / setup.frames,
                      particle_volume=vol, progress=progress)
-    r = torch.hypot(tr.x[..., 0] - center[0], tr.x[..., 1] - center[1])
-    top = torch.where(r < setup.radius / 2, tr.x[..., 2], torch.full_like(r, -math.inf)).max(dim=1).values
-    heights = top + spacing / 2 - floor
+    heights = tr.x[..., 2].max(dim=1).values + spacing / 2 - floor
     return {"times": tr.times.tolist(), "heights": heights.tolist(), "height": float(heights[-1]),
             "dt": tr.dt, "particles": len(x0)}

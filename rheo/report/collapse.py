@@ -50,7 +50,7 @@ def _history_plot(rows: list[dict], label: str, title: str):
     for r in rows:
         ax.plot(r["times"], r["heights"], label=f"{label} = {r[label]:g}")
     ax.set_xlabel("t (s)")
-    ax.set_ylabel("height at the axis")
+    ax.set_ylabel("height")
     ax.set_title(title)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
@@ -71,8 +71,9 @@ def render(table_41: list[dict], table_42: list[dict], calibration: dict, tolera
                             for c in calibration["candidates"]])
     within = sum(abs(r["relative_difference"]) <= tolerance for r in table_41 + table_42)
     body = (
-        f"<p>Cylinder of radius 0.2 and height 0.4 in the unit box, density 1000, gravity 9.8, sticky floor; height "
-        f"of the column at its axis at t = 1 s. The thesis' (sigma_y, eta) are PAC-NeRF's convention and enter rheo "
+        f"<p>Cylinder of radius 0.2 and height 0.4 in the unit box, density 1000, gravity 9.8, sticky floor, slip "
+        f"walls at the domain faces; height = top of the material at t = 1 s. The thesis' (sigma_y, eta) are "
+        f"PAC-NeRF's convention and enter rheo "
         f"as tau_y = sigma_y / sqrt(3), K = eta / 2. Elastic constants calibrated on Table 4.1 only: "
         f"mu = {calibration['mu']:g} Pa, lam = {calibration['lam']:g} Pa; Table 4.2 is predicted with no further "
         f"tuning. {within} of {len(table_41) + len(table_42)} rows lie within {100 * tolerance:.0f} %.</p>"
@@ -87,9 +88,9 @@ def render(table_41: list[dict], table_42: list[dict], calibration: dict, tolera
                                       "Figure 4.4: height vs eta / sigma_y"),
                      "Height at t = 1 s against eta / sigma_y: thesis and rheo")
         + "<h2>Height over time</h2>"
-        + figure_tag(_history_plot(table_41, "sigma_y", "Table 4.1 runs"), "Column height at the axis, Table 4.1")
+        + figure_tag(_history_plot(table_41, "sigma_y", "Table 4.1 runs"), "Height over time, Table 4.1")
         + figure_tag(_history_plot(table_42, "eta_over_sigma_y", "Table 4.2 runs"),
-                     "Column height at the axis, Table 4.2")
+                     "Height over time, Table 4.2")
         + "<h2>Calibration of the elastic constants</h2>" + candidates
     )
     return page("Column collapse: thesis Tables 4.1 and 4.2", body)

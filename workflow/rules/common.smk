@@ -11,3 +11,10 @@ def collapse_config():
 def table_rows(table):
     """Row keys of a thesis table as strings (the wildcard values)."""
     return [str(float(k)) for k in collapse_config()[table]["rows"]]
+
+
+def elastic_candidates():
+    """(mu, lam) pairs tried in the calibration, as wildcard strings."""
+    cfg = collapse_config()
+    return [(str(float(mu)), str(float(mu * ratio))) for mu in cfg["mu_candidates"]
+            for ratio in cfg["lam_over_mu_candidates"]]

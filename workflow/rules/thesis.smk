@@ -3,11 +3,11 @@
 
 rule thesis_calibration_run:
     output:
-        "results/thesis/calibration/mu{mu}/sigma_y{sigma_y}.json",
+        "results/thesis/calibration/mu{mu}_lam{lam}/sigma_y{sigma_y}.json",
     log:
-        "logs/thesis/calibration/mu{mu}/sigma_y{sigma_y}.log",
+        "logs/thesis/calibration/mu{mu}_lam{lam}/sigma_y{sigma_y}.log",
     benchmark:
-        "benchmarks/thesis/calibration/mu{mu}/sigma_y{sigma_y}.tsv"
+        "benchmarks/thesis/calibration/mu{mu}_lam{lam}/sigma_y{sigma_y}.tsv"
     params:
         setup=collapse_config(),
     script:
@@ -16,11 +16,11 @@ rule thesis_calibration_run:
 
 rule thesis_calibrate:
     input:
-        expand(
-            "results/thesis/calibration/mu{mu}/sigma_y{sigma_y}.json",
-            mu=[str(float(m)) for m in collapse_config()["mu_candidates"]],
-            sigma_y=table_rows("table_4_1"),
-        ),
+        [
+            f"results/thesis/calibration/mu{mu}_lam{lam}/sigma_y{sigma_y}.json"
+            for mu, lam in elastic_candidates()
+            for sigma_y in table_rows("table_4_1")
+        ],
     output:
         "results/thesis/calibration.json",
     log:
