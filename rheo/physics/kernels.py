@@ -1,10 +1,11 @@
 """Warp kernels of one MLS-MPM step (APIC transfers, quadratic B-splines), generic over float32/float64.
 
-One step is three launches: ``p2g`` (constitutive update and particle-to-grid transfer), ``grid_update``
-(gravity and boundaries) and ``g2p`` (grid-to-particle transfer and advection). Every input a loss may depend on
-(particle state, material parameters, boundary parameters) is a Warp array, so Warp's generated adjoints give the
-gradients. The two spectral matrix functions (logarithm and exponential of symmetric matrices) and the scalar
-Herschel-Bulkley return have hand-written adjoints that stay finite at repeated eigenvalues (undeformed material).
+One step is ``eigen`` (eigen-decomposition of the trial strain, for the Hencky models), then three differentiated
+launches: ``p2g`` (constitutive update and particle-to-grid transfer), ``grid_update`` (gravity and boundaries) and
+``g2p`` (grid-to-particle transfer and advection). Every input a loss may depend on (particle state, material
+parameters, boundary parameters) is a Warp array, so Warp's generated adjoints give the gradients. The plastic return
+on Hencky strain has a hand-written adjoint (divided differences of the eigenvalues) that stays finite at repeated
+eigenvalues (undeformed material) and needs no second decomposition in the backward pass.
 
 Stress conventions: Kirchhoff stress ``tau``; deviatoric norm ``|s|``; equivalent shear stress ``|s| / sqrt(2)``,
 which is what ``tau_y`` and the Herschel-Bulkley law refer to (``tau = tau_y + K gamma_dot^n`` in simple shear).
@@ -116,20 +117,6 @@ def build(scalar: type) -> SimpleNamespace:
                 w = w_next
             u = K * wp.pow(w, n)
         return u
-
-    @wp.func_grad(hb_excess)
-    def adj_hb_excess(excess_trial: scalar, relax: scalar, K: scalar, n: scalar, adj_ret: scalar):
-        # Implicit function theorem on g(u; excess_trial, relax, K, n) = 0.
-        u = hb_excess(excess_trial, relax, K, n)
-        if u > zero:
-            m = one / n
-            q = wp.pow(u / K, m)
-            dg_du = one + relax * m * q / u
-            s = adj_ret / dg_du
-            wp.adjoint[excess_trial] += s
-            wp.adjoint[relax] += -s * q
-            wp.adjoint[K] += s * relax * m * q / K
-            wp.adjoint[n] += s * relax * q * wp.log(u / K) * m * m
 
     @wp.func
     def eigen(b: mat33):

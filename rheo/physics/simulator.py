@@ -258,9 +258,6 @@ class _Run:
         self.unstable = wp.zeros(1, dtype=int)
         self.backward_done = False
 
-    def _to_wp(self, t: torch.Tensor, dtype) -> wp.array:
-        return wp.from_torch(t.detach().contiguous(), dtype=dtype)
-
     def _step(self, buf: _Buffers, i: int, grid: int, step: int, tape: wp.Tape | None) -> None:
         k, sim, s = self.sim.kernels, self.sim, self.sim.scalar
         x, v, C, F = buf.state(i)
@@ -334,6 +331,10 @@ class _Run:
                     self.snapshots[start] = self._save(self.buf, 0)
                 self.tape = self._run_chunk(self.buf, start, length, record, bar)
                 self.last_length = length
+        except BaseException:
+            sim._release(self.buf)  # a retry at a smaller step reuses the buffers
+            self.buf = None
+            raise
         finally:
             if bar is not None:
                 bar.close()
