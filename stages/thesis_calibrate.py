@@ -8,7 +8,7 @@ from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
-thesis = {float(k): v for k, v in smk.params.setup["table_4_1"]["rows"].items()}
+thesis = {float(k): v for k, v in smk.params.thesis_rows.items()}
 errors = defaultdict(list)
 for path in smk.input:
     run = read_json(path)

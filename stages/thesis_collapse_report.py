@@ -7,14 +7,13 @@ from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
-cfg = smk.params.setup
 calibration = read_json(smk.input.calibration)
 runs_41 = [r for r in (read_json(p) for p in smk.input.calibration_runs)
            if (r["mu"], r["lam"]) == (calibration["mu"], calibration["lam"])]
 runs_42 = [read_json(p) for p in smk.input.predictions]
-table_41 = rows_from_runs("4.1", runs_41, {float(k): v for k, v in cfg["table_4_1"]["rows"].items()},
+table_41 = rows_from_runs("4.1", runs_41, {float(k): v for k, v in smk.params.rows_41.items()},
                           key=lambda r: r["sigma_y"])
-table_42 = rows_from_runs("4.2", runs_42, {float(k): v for k, v in cfg["table_4_2"]["rows"].items()},
+table_42 = rows_from_runs("4.2", runs_42, {float(k): v for k, v in smk.params.rows_42.items()},
                           key=lambda r: round(r["eta"] / r["sigma_y"], 12))
 for row in table_41 + table_42:
     log.info("Table %s sigma_y=%g eta=%g: thesis %.5f, rheo %.5f (%+.1f %%)", row["table"], row["sigma_y"],

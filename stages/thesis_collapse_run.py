@@ -1,5 +1,5 @@
-"""One column-collapse simulation of the thesis' tables: a calibration run (wildcards mu, sigma_y: Table 4.1) or a
-prediction (wildcard ratio = eta / sigma_y: Table 4.2, elastic constants from the calibration)."""
+"""One column-collapse simulation of the thesis' tables: a calibration run (elastic constants from the params) or a
+prediction (elastic constants from the calibration input)."""
 
 import time
 
@@ -9,19 +9,13 @@ from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
-cfg = smk.params.setup
-setup = CollapseSetup(**{k: cfg[k] for k in ("resolution", "radius", "height", "density", "gravity", "duration",
-                                             "frames")})
-if hasattr(smk.wildcards, "ratio"):
+setup = CollapseSetup(**smk.params.setup)
+if hasattr(smk.input, "calibration"):
     calibration = read_json(smk.input.calibration)
     mu, lam = calibration["mu"], calibration["lam"]
-    sigma_y = float(cfg["table_4_2"]["sigma_y"])
-    eta = float(smk.wildcards.ratio) * sigma_y
 else:
-    mu = float(smk.wildcards.mu)
-    lam = float(smk.wildcards.lam)
-    sigma_y = float(smk.wildcards.sigma_y)
-    eta = float(cfg["table_4_1"]["eta"])
+    mu, lam = smk.params.elastic
+sigma_y, eta = float(smk.params.sigma_y), float(smk.params.eta)
 log.info("collapse: sigma_y=%g eta=%g mu=%g lam=%g on a %d^3 grid", sigma_y, eta, mu, lam, setup.resolution)
 start = time.perf_counter()
 result = simulate_collapse(thesis_material(sigma_y, eta, mu, lam, setup.density), setup, progress=True)

@@ -45,6 +45,14 @@ def test_collapse_target_runs_and_resumes(tmp_path):
     assert (tmp_path / "logs/thesis/calibrate.log").read_text().count("RMS relative difference") == 2
     again = _snakemake(tmp_path, "results/thesis/collapse.html")
     assert again.returncode == 0 and "Nothing to be done" in again.stdout + again.stderr
+    # a changed reference value reruns only the report, not the simulations
+    changed = yaml.safe_load(yaml.safe_dump(TINY))
+    changed["thesis"]["collapse"]["table_4_2"]["rows"] = {0.01: 0.2}
+    (tmp_path / "config/config.yaml").write_text(yaml.safe_dump(changed))
+    plan = _snakemake(tmp_path, "-n", "results/thesis/collapse.html")
+    assert plan.returncode == 0, plan.stderr[-3000:]
+    assert "thesis_collapse_report" in plan.stdout
+    assert "thesis_calibration_run" not in plan.stdout and "thesis_predict" not in plan.stdout
 
 
 def test_bad_config_value_is_refused(tmp_path):

@@ -18,3 +18,9 @@ def elastic_candidates():
     cfg = collapse_config()
     return [(str(float(mu)), str(float(mu * ratio))) for mu in cfg["mu_candidates"]
             for ratio in cfg["lam_over_mu_candidates"]]
+
+
+def simulation_setup():
+    """The keys of the collapse configuration that every simulation depends on."""
+    keys = ("resolution", "radius", "height", "density", "gravity", "duration", "frames")
+    return {k: collapse_config()[k] for k in keys}

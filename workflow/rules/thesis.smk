@@ -9,7 +9,10 @@ rule thesis_calibration_run:
     benchmark:
         "benchmarks/thesis/calibration/mu{mu}_lam{lam}/sigma_y{sigma_y}.tsv"
     params:
-        setup=collapse_config(),
+        setup=simulation_setup(),
+        sigma_y=lambda w: float(w.sigma_y),
+        eta=collapse_config()["table_4_1"]["eta"],
+        elastic=lambda w: [float(w.mu), float(w.lam)],
     script:
         "../../stages/thesis_collapse_run.py"
 
@@ -26,7 +29,7 @@ rule thesis_calibrate:
     log:
         "logs/thesis/calibrate.log",
     params:
-        setup=collapse_config(),
+        thesis_rows=collapse_config()["table_4_1"]["rows"],
     script:
         "../../stages/thesis_calibrate.py"
 
@@ -41,7 +44,9 @@ rule thesis_predict:
     benchmark:
         "benchmarks/thesis/prediction/ratio{ratio}.tsv"
     params:
-        setup=collapse_config(),
+        setup=simulation_setup(),
+        sigma_y=collapse_config()["table_4_2"]["sigma_y"],
+        eta=lambda w: float(w.ratio) * collapse_config()["table_4_2"]["sigma_y"],
     script:
         "../../stages/thesis_collapse_run.py"
 
@@ -57,6 +62,7 @@ rule thesis_collapse_report:
     log:
         "logs/thesis/collapse_report.log",
     params:
-        setup=collapse_config(),
+        rows_41=collapse_config()["table_4_1"]["rows"],
+        rows_42=collapse_config()["table_4_2"]["rows"],
     script:
         "../../stages/thesis_collapse_report.py"
