@@ -3,7 +3,8 @@
 The thesis gives (sigma_y, eta) in PAC-NeRF's convention: yield when |s| > sqrt(2/3) sigma_y, and the viscoplastic
 return |s_new| = |s| - delta / (1 + eta / (2 mu dt)). In rheo's shear convention (yield when |s|/sqrt(2) > tau_y, and
 |s_new| = |s| - delta / (1 + K / (mu dt))) the same law is tau_y = sigma_y / sqrt(3) and K = eta / 2.
-The height is the top of the material above the floor (highest particle plus half a particle spacing).
+The height is the top of the material above the floor (highest particle plus half a particle spacing). The floor is
+wide enough (a 1.5 m box by default) that the low-yield piles never reach the domain walls.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ from rheo.physics import Floor, HerschelBulkley, Simulator
 
 @dataclass(frozen=True)
 class CollapseSetup:
-    resolution: int = 32
+    domain_size: float = 1.5
+    resolution: int = 48
     radius: float = 0.2
     height: float = 0.4
     density: float = 1000.0
@@ -35,11 +37,12 @@ def thesis_material(sigma_y: float, eta: float, mu: float, lam: float, density: 
 
 def simulate_collapse(material: HerschelBulkley, setup: CollapseSetup, progress: bool = False) -> dict:
     """Heights of the material over time (m), from t = 0 to ``setup.duration``."""
-    floor = 3.0 / setup.resolution
-    sim = Simulator(material, resolution=setup.resolution, colliders=[Floor(height=floor, contact="sticky")],
+    sim = Simulator(material, resolution=setup.resolution, domain_size=setup.domain_size,
+                    colliders=[Floor(height=3.0 * setup.domain_size / setup.resolution, contact="sticky")],
                     gravity=(0.0, 0.0, -setup.gravity))
+    floor = 3.0 * sim.dx
     spacing = sim.dx / 2
-    center = (0.5, 0.5)
+    center = (setup.domain_size / 2, setup.domain_size / 2)
     x0, vol = cylinder(center, floor, setup.radius, setup.height, spacing, dtype=torch.float32)
     tr = sim.rollout(x0, torch.zeros(3), frames=setup.frames, frame_dt=setup.duration / setup.frames,
                      particle_volume=vol, progress=progress)

@@ -71,8 +71,8 @@ def render(table_41: list[dict], table_42: list[dict], calibration: dict, tolera
                             for c in calibration["candidates"]])
     within = sum(abs(r["relative_difference"]) <= tolerance for r in table_41 + table_42)
     body = (
-        f"<p>Cylinder of radius 0.2 and height 0.4 in the unit box, density 1000, gravity 9.8, sticky floor, slip "
-        f"walls at the domain faces; height = top of the material at t = 1 s. The thesis' (sigma_y, eta) are "
+        f"<p>Cylinder of radius 0.2 and height 0.4, density 1000, gravity 9.8, on a sticky floor wide enough that no "
+        f"pile reaches the domain walls; height = top of the material at t = 1 s. The thesis' (sigma_y, eta) are "
         f"PAC-NeRF's convention and enter rheo "
         f"as tau_y = sigma_y / sqrt(3), K = eta / 2. Elastic constants calibrated on Table 4.1 only: "
         f"mu = {calibration['mu']:g} Pa, lam = {calibration['lam']:g} Pa; Table 4.2 is predicted with no further "

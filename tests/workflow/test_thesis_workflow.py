@@ -13,7 +13,7 @@ import yaml
 REPO = Path(__file__).resolve().parents[2]
 
 TINY = {"thesis": {"collapse": {
-    "resolution": 16, "duration": 0.05, "frames": 2, "mu_candidates": [5000.0, 10000.0],
+    "domain_size": 1.0, "resolution": 16, "duration": 0.05, "frames": 2, "mu_candidates": [5000.0, 10000.0],
     "lam_over_mu_candidates": [1.0],
     "table_4_1": {"eta": 10.0, "rows": {500: 0.11758, 2000: 0.28506}},
     "table_4_2": {"sigma_y": 1000.0, "rows": {0.01: 0.19640}},

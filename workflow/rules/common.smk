@@ -22,5 +22,5 @@ def elastic_candidates():
 
 def simulation_setup():
     """The keys of the collapse configuration that every simulation depends on."""
-    keys = ("resolution", "radius", "height", "density", "gravity", "duration", "frames")
+    keys = ("domain_size", "resolution", "radius", "height", "density", "gravity", "duration", "frames")
     return {k: collapse_config()[k] for k in keys}
