@@ -68,3 +68,22 @@ def test_slump_matches_pashias(tau_prime):
 def test_slump_matches_pashias_fine_grid(tau_prime):
     height, expected = _slump_height(tau_prime, resolution=48, frames=20)
     assert height == pytest.approx(expected, rel=0.2)
+
+
+def test_spread_bingham_pile_matches_shallow_pile_theory():
+    """A low-yield column on a sticky floor spreads into a shallow pile whose yield-limited profile is
+    h(r)^2 = 2 tau_y (R - r) / (rho g) (lubrication theory with a no-slip base): with the volume fixed, the centre
+    height is h0 = sqrt(2 tau_y R / (rho g)), R = (15 V / (8 pi sqrt(2 tau_y / (rho g))))^(2/5)."""
+    tau_y, rho, g, radius, height = 57.7, 1000.0, 9.8, 0.2, 0.4
+    material = HerschelBulkley(tau_y=tau_y, K=5.0, n=1.0, mu=1.0e4, lam=1.0e4, density=rho)
+    res, size = 48, 1.5
+    floor = 3 * size / res
+    sim = Simulator(material, resolution=res, domain_size=size, colliders=[Floor(height=floor)])
+    spacing = sim.dx / 2
+    x0, vol = cylinder((size / 2, size / 2), floor, radius, height, spacing, dtype=torch.float32)
+    tr = sim.rollout(x0, torch.zeros(3), frames=12, frame_dt=1 / 12, particle_volume=vol)
+    k = 2 * tau_y / (rho * g)
+    pile_radius = (15 * len(x0) * vol / (8 * math.pi * math.sqrt(k))) ** 0.4
+    expected = math.sqrt(k * pile_radius)
+    final_height = float(tr.x[-1, :, 2].max()) + spacing / 2 - floor
+    assert final_height == pytest.approx(expected, rel=0.1)
