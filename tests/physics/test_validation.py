@@ -22,7 +22,7 @@ def test_free_fall_centroid_follows_half_g_t_squared():
 
 def test_block_below_yield_keeps_its_height():
     floor = 3 / 24
-    material = HerschelBulkley(tau_y=2.0e4, K=10.0, n=1.0, mu=3.0e4, lam=3.0e4)  # tau_y / (rho g H) ~ 10
+    material = HerschelBulkley(tau_y=2.0e4, K=10.0, n=1.0, mu=1.0e5, lam=1.0e5)  # tau_y / (rho g H) ~ 10
     sim = Simulator(material, resolution=24, colliders=[Floor(height=floor)])
     x0, vol = cylinder((0.5, 0.5), floor, 0.1, 0.2, sim.dx / 2, dtype=torch.float32)
     tr = sim.rollout(x0, torch.zeros(3), frames=10, frame_dt=0.1, particle_volume=vol)
