@@ -5,13 +5,13 @@ import torch
 
 from rheo.geometry.sampling import cylinder
 from rheo.physics import (
-    Box,
     Floor,
     HerschelBulkley,
     NeoHookean,
     NewtonianFluid,
     Plasticine,
     Simulator,
+    dam_break_gate,
     lifted_cup,
 )
 
@@ -75,8 +75,8 @@ def test_material_parameter_gradients(material):
 
 
 def test_initial_state_and_boundary_gradients():
-    gate = Box(center=(0.2437, 0.5, 0.5), half_extents=(0.0613, 0.45, 0.3), contact="friction", friction=0.3,
-               velocity=(0.0, 0.0, 0.8))
+    gate = dam_break_gate(0.8, center=(0.2437, 0.5, 0.5), half_extents=(0.0613, 0.45, 0.3), contact="friction",
+                          friction=0.3)
     colliders = [Floor(height=FLOOR, contact="friction", friction=0.4), gate]
     sim, x0, loss = _scene(HB, colliders, center=(0.43, 0.52))
     v0 = torch.tensor([-0.5, 0.1, -0.3], dtype=torch.float64)  # towards the gate
