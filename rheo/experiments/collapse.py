@@ -39,13 +39,13 @@ def simulate_collapse(material: HerschelBulkley, setup: CollapseSetup, progress:
     """Heights of the material over time (m), from t = 0 to ``setup.duration``."""
     sim = Simulator(material, resolution=setup.resolution, domain_size=setup.domain_size,
                     colliders=[Floor(height=3.0 * setup.domain_size / setup.resolution, contact="sticky")],
-                    gravity=(0.0, 0.0, -setup.gravity))
+                    gravity=(0.0, -setup.gravity, 0.0))
     floor = 3.0 * sim.dx
     spacing = sim.dx / 2
     center = (setup.domain_size / 2, setup.domain_size / 2)
     x0, vol = cylinder(center, floor, setup.radius, setup.height, spacing, dtype=torch.float32)
     tr = sim.rollout(x0, torch.zeros(3), frames=setup.frames, frame_dt=setup.duration / setup.frames,
                      particle_volume=vol, progress=progress)
-    heights = tr.x[..., 2].max(dim=1).values + spacing / 2 - floor
+    heights = tr.x[..., 1].max(dim=1).values + spacing / 2 - floor
     return {"times": tr.times.tolist(), "heights": heights.tolist(), "height": float(heights[-1]),
             "dt": tr.dt, "particles": len(x0)}

@@ -16,15 +16,15 @@ def lattice_fill(inside: Callable[[torch.Tensor], torch.Tensor], lower, upper, s
     return points[inside(points)], spacing**3
 
 
-def cylinder(center_xy, base_z: float, radius: float, height: float, spacing: float,
+def cylinder(center_xz, base_y: float, radius: float, height: float, spacing: float,
              dtype: torch.dtype = torch.float64) -> tuple[torch.Tensor, float]:
-    """A vertical solid cylinder standing on z = ``base_z``."""
-    cx, cy = center_xy
+    """A vertical (y is up) solid cylinder with its axis at (x, z) = ``center_xz``, standing on y = ``base_y``."""
+    cx, cz = center_xz
 
     def inside(p: torch.Tensor) -> torch.Tensor:
-        return (p[:, 0] - cx) ** 2 + (p[:, 1] - cy) ** 2 <= radius**2
+        return (p[:, 0] - cx) ** 2 + (p[:, 2] - cz) ** 2 <= radius**2
 
-    return lattice_fill(inside, (cx - radius, cy - radius, base_z), (cx + radius, cy + radius, base_z + height),
+    return lattice_fill(inside, (cx - radius, base_y, cz - radius), (cx + radius, base_y + height, cz + radius),
                         spacing, dtype)
 
 

@@ -40,7 +40,7 @@ def _rollout_and_backward(sim: Simulator, x0: torch.Tensor, vol: float, steps: i
     params = sim.material_parameters().requires_grad_()
     tr = sim.rollout(x0, torch.zeros(3), frames=1, frame_dt=steps * DT, particle_volume=vol,
                      material_params=params, dt=DT)
-    (tr.x[-1, :, 2].mean() + tr.v[-1].square().mean()).backward()
+    (tr.x[-1, :, 1].mean() + tr.v[-1].square().mean()).backward()
 
 
 def measure_case(resolution: int, steps: int) -> dict:

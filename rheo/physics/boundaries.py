@@ -3,7 +3,7 @@
 Each collider is a solid region given by a signed distance function, a contact law applied at the grid nodes inside
 it (sticky, slip, or Coulomb friction with a coefficient) and a rigid motion: constant velocity between ``start`` and
 ``stop`` seconds. The friction coefficient and the velocity are differentiable boundary parameters; geometry enters
-through which nodes lie inside and is not differentiated. Lengths in m, speeds in m/s, times in s, z is up.
+through which nodes lie inside and is not differentiated. Lengths in m, speeds in m/s, times in s, y is up.
 """
 
 from __future__ import annotations
@@ -92,9 +92,10 @@ class Box(Collider):
 
 @dataclass(frozen=True)
 class Cup(Collider):
-    """An upturned cup: a truncated-cone shell, open at its rim (z = ``rim_height``), closed at the top.
+    """An upturned cup: a truncated-cone shell with a vertical axis at (x, z) = ``axis``, open at its rim
+    (y = ``rim_height``), closed at the top.
 
-    The material fills the cavity; lifting the cup (a velocity along +z from ``start``) releases it.
+    The material fills the cavity; lifting the cup (a velocity along +y from ``start``) releases it.
     """
 
     axis: tuple[float, float] = (0.5, 0.5)
@@ -120,12 +121,12 @@ class Cup(Collider):
 
 def lifted_cup(speed: float, start: float = 0.0, **geometry: float) -> Cup:
     """A cup lifted vertically at ``speed`` (m/s) from time ``start``."""
-    return Cup(velocity=(0.0, 0.0, speed), start=start, contact=geometry.pop("contact", "slip"), **geometry)
+    return Cup(velocity=(0.0, speed, 0.0), start=start, contact=geometry.pop("contact", "slip"), **geometry)
 
 
 def dam_break_gate(speed: float, start: float = 0.0, **geometry) -> Box:
     """A gate plate that slides up at ``speed`` (m/s) from time ``start``."""
-    return Box(velocity=(0.0, 0.0, speed), start=start, contact=geometry.pop("contact", "slip"), **geometry)
+    return Box(velocity=(0.0, speed, 0.0), start=start, contact=geometry.pop("contact", "slip"), **geometry)
 
 
 @dataclass(frozen=True)

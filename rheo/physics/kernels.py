@@ -30,7 +30,7 @@ P_MU, P_LAM, P_TAU_Y, P_K, P_N, P_RHO = range(6)
 N_MATERIAL_PARAMS = 6
 
 # Collider shapes, contact laws and layouts of the collider arrays.
-SHAPE_FLOOR = 0  # half-space z <= geom[0]
+SHAPE_FLOOR = 0  # half-space y <= geom[0] (y is up)
 SHAPE_BOX = 1  # axis-aligned box: centre geom[0:3], half extents geom[3:6]
 SHAPE_CUP = 2  # open-bottomed truncated-cone shell, see boundaries.Cup
 CONTACT_STICKY = 0
@@ -330,10 +330,10 @@ def build(scalar: type) -> SimpleNamespace:
 
     @wp.func
     def cup_sdf(p: vec3, g: wp.array2d(dtype=scalar), c: int) -> scalar:
-        # Shell of thickness g[c, 6] around a truncated-cone cavity with axis (g[c, 0], g[c, 1]), open rim at
-        # z = g[c, 2], height g[c, 3], inner radius g[c, 4] at the rim and g[c, 5] at the closed top.
-        r = wp.sqrt((p[0] - g[c, 0]) * (p[0] - g[c, 0]) + (p[1] - g[c, 1]) * (p[1] - g[c, 1]))
-        h = p[2] - g[c, 2]
+        # Shell of thickness g[c, 6] around a truncated-cone cavity with vertical axis at (x, z) = (g[c, 0], g[c, 1]),
+        # open rim at y = g[c, 2], height g[c, 3], inner radius g[c, 4] at the rim and g[c, 5] at the closed top.
+        r = wp.sqrt((p[0] - g[c, 0]) * (p[0] - g[c, 0]) + (p[2] - g[c, 1]) * (p[2] - g[c, 1]))
+        h = p[1] - g[c, 2]
         height = g[c, 3]
         r_in = g[c, 4] + (g[c, 5] - g[c, 4]) * wp.clamp(h / height, zero, one)
         cavity = wp.max(r - r_in, h - height)  # < 0 inside the cavity
@@ -350,7 +350,7 @@ def build(scalar: type) -> SimpleNamespace:
     @wp.func
     def shape_sdf(shape: int, p: vec3, g: wp.array2d(dtype=scalar), c: int) -> scalar:
         if shape == SHAPE_FLOOR:
-            return p[2] - g[c, 0]
+            return p[1] - g[c, 0]
         if shape == SHAPE_BOX:
             return box_sdf(p, g, c)
         return cup_sdf(p, g, c)
@@ -358,7 +358,7 @@ def build(scalar: type) -> SimpleNamespace:
     @wp.func
     def shape_normal(shape: int, p: vec3, g: wp.array2d(dtype=scalar), c: int, h: scalar) -> vec3:
         if shape == SHAPE_FLOOR:
-            return vec3(zero, zero, one)
+            return vec3(zero, one, zero)
         grad = vec3(
             shape_sdf(shape, p + vec3(h, zero, zero), g, c) - shape_sdf(shape, p - vec3(h, zero, zero), g, c),
             shape_sdf(shape, p + vec3(zero, h, zero), g, c) - shape_sdf(shape, p - vec3(zero, h, zero), g, c),

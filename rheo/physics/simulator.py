@@ -59,12 +59,12 @@ class Trajectory:
 class Simulator:
     """A 3D MLS-MPM simulator on the cube [0, domain_size]^3 with ``resolution`` cells per axis.
 
-    ``gravity`` is a vector in m/s^2 (z up). Particles must stay ``kernels.BOUND`` cells away from the domain faces,
+    ``gravity`` is a vector in m/s^2 (y is up). Particles must stay ``kernels.BOUND`` cells away from the domain faces,
     which act as slip walls. ``checkpoint_mb`` bounds the memory kept for the backward pass.
     """
 
     def __init__(self, material: Material, *, resolution: int = 32, domain_size: float = 1.0,
-                 colliders: tuple[Collider, ...] | list[Collider] = (), gravity=(0.0, 0.0, -9.8),
+                 colliders: tuple[Collider, ...] | list[Collider] = (), gravity=(0.0, -9.8, 0.0),
                  dtype: torch.dtype = torch.float32, cfl: float = 0.4, max_halvings: int = 4,
                  checkpoint_mb: float = 1024.0) -> None:
         if not isinstance(material, Material):

@@ -11,11 +11,11 @@ from rheo.physics import Floor, HerschelBulkley, NeoHookean, Simulator
 
 def test_free_fall_centroid_follows_half_g_t_squared():
     sim = Simulator(NeoHookean(mu=1.0e3, lam=1.0e3), resolution=16, dtype=torch.float64)
-    x0, vol = box((0.4, 0.4, 0.6), (0.6, 0.6, 0.8), sim.dx / 2)
+    x0, vol = box((0.4, 0.6, 0.4), (0.6, 0.8, 0.6), sim.dx / 2)
     tr = sim.rollout(x0, torch.zeros(3), frames=6, frame_dt=0.04, particle_volume=vol, dt=1e-4)
-    drop = x0[:, 2].mean() - tr.x[:, :, 2].mean(dim=1)
+    drop = x0[:, 1].mean() - tr.x[:, :, 1].mean(dim=1)
     expected = 0.5 * 9.8 * tr.times**2
-    assert tr.x[-1, :, 2].min() > 3 * sim.dx  # no contact with the bottom wall
+    assert tr.x[-1, :, 1].min() > 3 * sim.dx  # no contact with the bottom wall
     rel = (drop[1:] - expected[1:]).abs() / expected[1:]
     assert rel.max() < 5e-3, rel
 
@@ -26,7 +26,7 @@ def test_block_below_yield_keeps_its_height():
     sim = Simulator(material, resolution=24, colliders=[Floor(height=floor)])
     x0, vol = cylinder((0.5, 0.5), floor, 0.1, 0.2, sim.dx / 2, dtype=torch.float32)
     tr = sim.rollout(x0, torch.zeros(3), frames=10, frame_dt=0.1, particle_volume=vol)
-    height = tr.x[:, :, 2].max(dim=1).values - floor
+    height = tr.x[:, :, 1].max(dim=1).values - floor
     assert ((height - height[0]).abs() / height[0]).max() < 0.02
 
 
@@ -53,7 +53,7 @@ def _slump_height(tau_prime: float, resolution: int, frames: int) -> tuple[float
     spacing = sim.dx / 2
     x0, vol = cylinder((0.5, 0.5), floor, H / 2, H, spacing, dtype=torch.float32)
     tr = sim.rollout(x0, torch.zeros(3), frames=frames, frame_dt=0.1, particle_volume=vol)
-    final_height = float(tr.x[-1, :, 2].max()) + spacing / 2 - floor
+    final_height = float(tr.x[-1, :, 1].max()) + spacing / 2 - floor
     return final_height, H * 2 * tau_prime * (1 - math.log(2 * tau_prime))
 
 
@@ -85,5 +85,5 @@ def test_spread_bingham_pile_matches_shallow_pile_theory():
     k = 2 * tau_y / (rho * g)
     pile_radius = (15 * len(x0) * vol / (8 * math.pi * math.sqrt(k))) ** 0.4
     expected = math.sqrt(k * pile_radius)
-    final_height = float(tr.x[-1, :, 2].max()) + spacing / 2 - floor
+    final_height = float(tr.x[-1, :, 1].max()) + spacing / 2 - floor
     assert final_height == pytest.approx(expected, rel=0.1)
