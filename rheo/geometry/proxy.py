@@ -1,0 +1,136 @@
+"""Proxy geometry: the shape the material starts in, from primitives or a mesh file, voxelised into an occupancy
+grid and particles (y is up; shapes stand on y = 0 unless placed otherwise).
+
+Inside tests use one ray per lattice column (parity of the crossings along +y), so a mesh of any size is voxelised
+in a fraction of a second.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+
+class ProxyError(ValueError):
+    """A proxy description or mesh that cannot be voxelised."""
+
+
+@dataclass(frozen=True)
+class Voxelized:
+    """Lattice occupancy and the particles at the occupied cell centres."""
+
+    occupancy: np.ndarray  # bool (nx, ny, nz)
+    origin: np.ndarray  # centre of cell (0, 0, 0)
+    spacing: float
+    particles: np.ndarray  # (N, 3)
+
+    @property
+    def particle_volume(self) -> float:
+        return self.spacing**3
+
+    @property
+    def volume(self) -> float:
+        return len(self.particles) * self.spacing**3
+
+
+def _y_up(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
+    """trimesh builds primitives along z; turn them to stand along y with the base on y = 0."""
+    mesh.apply_transform(trimesh.transformations.rotation_matrix(-math.pi / 2, [1, 0, 0]))
+    mesh.apply_translation([0.0, -mesh.bounds[0][1], 0.0])
+    return mesh
+
+
+def truncated_cone(base_diameter: float, top_diameter: float, height: float, sections: int = 256) -> trimesh.Trimesh:
+    """A solid truncated cone standing on its base (an upturned cup's contents: base = the cup's rim)."""
+    _positive(base_diameter=base_diameter, top_diameter=top_diameter, height=height)
+    mesh = trimesh.creation.cylinder(radius=base_diameter / 2, height=height, sections=sections)
+    z = mesh.vertices[:, 2]
+    scale = 1.0 + (top_diameter / base_diameter - 1.0) * (z + height / 2) / height
+    mesh.vertices[:, :2] *= scale[:, None]
+    return _y_up(mesh)
+
+
+def truncated_cone_volume(base_diameter: float, top_diameter: float, height: float) -> float:
+    r1, r2 = base_diameter / 2, top_diameter / 2
+    return math.pi * height * (r1 * r1 + r1 * r2 + r2 * r2) / 3
+
+
+def cylinder(radius: float, height: float, sections: int = 256) -> trimesh.Trimesh:
+    _positive(radius=radius, height=height)
+    return _y_up(trimesh.creation.cylinder(radius=radius, height=height, sections=sections))
+
+
+def spheroid(radius: float, height: float, subdivisions: int = 5) -> trimesh.Trimesh:
+    """A spheroid with equatorial radius ``radius`` and vertical extent ``height`` (prolate when height > 2 radius)."""
+    _positive(radius=radius, height=height)
+    mesh = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
+    mesh.apply_scale([radius, height / 2, radius])
+    mesh.apply_translation([0.0, height / 2, 0.0])
+    return mesh
+
+
+def box(extents) -> trimesh.Trimesh:
+    extents = [float(e) for e in extents]
+    _positive(**{f"extent {i}": e for i, e in enumerate(extents)})
+    mesh = trimesh.creation.box(extents=extents)
+    mesh.apply_translation([0.0, extents[1] / 2, 0.0])
+    return mesh
+
+
+def load_mesh(path: str | Path, scale: float = 1.0) -> trimesh.Trimesh:
+    """A closed triangle mesh from an OBJ, STL or PLY file (in its own frame, scaled by ``scale``)."""
+    path = Path(path)
+    if path.suffix.lower() not in {".obj", ".stl", ".ply"}:
+        raise ProxyError(f"{path}: unsupported mesh format {path.suffix!r}; use OBJ, STL or PLY")
+    if not path.is_file():
+        raise ProxyError(f"{path}: no such mesh file")
+    try:
+        mesh = trimesh.load(path, force="mesh", process=True)
+    except Exception as err:  # trimesh raises many types for bad files
+        raise ProxyError(f"{path}: not a readable mesh ({err})") from err
+    if len(mesh.faces) == 0:
+        raise ProxyError(f"{path}: the mesh has no triangles")
+    if not mesh.is_watertight:
+        open_edges = len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))
+        raise ProxyError(f"{path}: the mesh is not watertight ({open_edges} open edges), so it encloses no volume; "
+                         f"close its holes first")
+    mesh.apply_scale(scale)
+    return mesh
+
+
+def voxelize(mesh: trimesh.Trimesh, spacing: float) -> Voxelized:
+    """Occupancy of the lattice of cell centres (spacing ``spacing``) covering the mesh, and its particles."""
+    if not (math.isfinite(spacing) and spacing > 0):
+        raise ProxyError(f"voxel spacing {spacing!r} must be finite and > 0")
+    lo, hi = mesh.bounds
+    counts = np.maximum(np.ceil((hi - lo) / spacing).astype(int), 1)
+    if counts.prod() > 50_000_000:
+        raise ProxyError(f"voxel spacing {spacing:g} m gives {counts.prod():,} cells over the mesh; use a coarser one")
+    origin = lo + 0.5 * spacing * np.ones(3)
+    axes = [origin[a] + spacing * np.arange(counts[a]) for a in range(3)]
+    # one ray per (x, z) column, along +y, slightly off the lattice to avoid grazing edges exactly
+    gx, gz = np.meshgrid(axes[0] + 1e-7 * spacing, axes[2] + 1.3e-7 * spacing, indexing="ij")
+    origins = np.stack([gx.ravel(), np.full(gx.size, lo[1] - spacing), gz.ravel()], axis=1)
+    directions = np.tile([0.0, 1.0, 0.0], (len(origins), 1))
+    locations, ray_index, _ = mesh.ray.intersects_location(origins, directions, multiple_hits=True)
+    occupancy = np.zeros(counts, dtype=bool)
+    order = np.lexsort((locations[:, 1], ray_index))
+    ray_index, heights = ray_index[order], locations[order, 1]
+    for ray in np.unique(ray_index):
+        ys = heights[ray_index == ray]
+        ys = ys[np.concatenate([[True], np.diff(ys) > 1e-9 * spacing])]  # one crossing per surface
+        i, k = divmod(int(ray), counts[2])
+        for enter, leave in zip(ys[0::2], ys[1::2], strict=False):
+            occupancy[i, (axes[1] > enter) & (axes[1] < leave), k] = True
+    index = np.argwhere(occupancy)
+    return Voxelized(occupancy=occupancy, origin=origin, spacing=spacing, particles=origin + index * spacing)
+
+
+def _positive(**values: float) -> None:
+    for name, value in values.items():
+        if not (math.isfinite(value) and value > 0):
+            raise ProxyError(f"proxy {name} = {value!r} must be finite and > 0")

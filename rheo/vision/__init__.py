@@ -1,0 +1,1 @@
+"""Cameras and images: checkerboard calibration, matting."""

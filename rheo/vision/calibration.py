@@ -1,0 +1,138 @@
+"""Checkerboard calibration: intrinsics and distortion (OpenCV's model and order), and camera poses in the
+simulator's world frame (y up, floor at y = 0) from a board lying on the ground.
+
+Camera axes follow OpenCV (x right, y down, z forward); ``c2w`` maps camera coordinates to world coordinates.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+logger = logging.getLogger(__name__)
+
+# world_from_board for a board lying on the floor: board x -> world x, board y -> world z, board -z -> world y (up)
+_WORLD_FROM_BOARD = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
+
+
+class CalibrationError(ValueError):
+    """Calibration images that cannot give a calibration."""
+
+
+@dataclass(frozen=True)
+class Board:
+    """A checkerboard: inner corners per row (``columns``) and per column (``rows``), square side in m."""
+
+    columns: int = 9
+    rows: int = 6
+    square: float = 0.025
+
+    def object_points(self) -> np.ndarray:
+        """Corner positions in the board frame (z = 0), in OpenCV's detection order."""
+        grid = np.mgrid[0:self.columns, 0:self.rows].T.reshape(-1, 2)
+        return np.hstack([grid * self.square, np.zeros((len(grid), 1))]).astype(np.float32)
+
+
+@dataclass
+class Intrinsics:
+    width: int
+    height: int
+    K: np.ndarray
+    dist: np.ndarray
+    rms_px: float
+    per_view_rms_px: dict[str, float] = field(default_factory=dict)
+    skipped: list[str] = field(default_factory=list)
+
+
+def read_gray(path: str | Path) -> np.ndarray:
+    image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
+    if image is None:
+        raise CalibrationError(f"{path}: not a readable image")
+    return image
+
+
+def find_corners(gray: np.ndarray, board: Board) -> np.ndarray | None:
+    """Sub-pixel inner corners (N, 1, 2) of ``board`` in ``gray``, or None where the board is not found."""
+    flags = cv2.CALIB_CB_ADAPTIVE_THRESH + cv2.CALIB_CB_NORMALIZE_IMAGE
+    found, corners = cv2.findChessboardCorners(gray, (board.columns, board.rows), flags=flags)
+    if not found:
+        return None
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
+    return cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1), criteria)
+
+
+def calibrate_intrinsics(images: Sequence[str | Path], board: Board, *, fix_aspect_ratio: bool = False,
+                         min_views: int = 3) -> Intrinsics:
+    """Intrinsics and distortion (k1, k2, p1, p2, k3) from checkerboard photos of one camera.
+
+    Images where the board is not found are skipped with a warning naming them; fewer than ``min_views`` usable
+    images is a CalibrationError.
+    """
+    object_points, image_points, names, skipped = [], [], [], []
+    size = None
+    for path in images:
+        gray = read_gray(path)
+        if size is None:
+            size = gray.shape[::-1]
+        elif gray.shape[::-1] != size:
+            raise CalibrationError(f"{path}: image size {gray.shape[::-1]} differs from the first image's {size}")
+        corners = find_corners(gray, board)
+        if corners is None:
+            skipped.append(Path(path).name)
+            continue
+        object_points.append(board.object_points())
+        image_points.append(corners)
+        names.append(Path(path).name)
+    if skipped:
+        logger.warning("no %dx%d board found in %d of %d images: %s", board.columns, board.rows, len(skipped),
+                       len(images), ", ".join(skipped))
+    if len(names) < min_views:
+        raise CalibrationError(f"only {len(names)} of {len(images)} images show the {board.columns}x{board.rows} "
+                               f"board; at least {min_views} are needed")
+    flags = cv2.CALIB_FIX_ASPECT_RATIO if fix_aspect_ratio else 0
+    K0 = np.eye(3)
+    rms, K, dist, rvecs, tvecs = cv2.calibrateCamera(object_points, image_points, size, K0, None, flags=flags)
+    per_view = {}
+    for name, obj, img, rvec, tvec in zip(names, object_points, image_points, rvecs, tvecs, strict=True):
+        projected, _ = cv2.projectPoints(obj, rvec, tvec, K, dist)
+        per_view[name] = float(np.sqrt(np.mean(np.sum((projected - img) ** 2, axis=-1))))
+    return Intrinsics(width=size[0], height=size[1], K=K, dist=dist.ravel()[:5], rms_px=float(rms),
+                      per_view_rms_px=per_view, skipped=skipped)
+
+
+def ground_pose(gray: np.ndarray, board: Board, K: np.ndarray, dist: np.ndarray, *,
+                origin: Sequence[float] = (0.0, 0.0, 0.0), source: str = "image") -> tuple[np.ndarray, float]:
+    """Camera-to-world transform (4x4) from a photo of the board lying on the floor, and the reprojection RMS (px).
+
+    The world frame: the board's first corner at ``origin`` (x, z on the floor), y up out of the floor.
+    """
+    corners = find_corners(gray, board)
+    if corners is None:
+        raise CalibrationError(f"{source}: no {board.columns}x{board.rows} board found for the world frame")
+    obj = board.object_points()
+    ok, rvec, tvec = cv2.solvePnP(obj, corners, K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
+    if not ok:
+        raise CalibrationError(f"{source}: the board pose could not be solved")
+    projected, _ = cv2.projectPoints(obj, rvec, tvec, K, dist)
+    rms = float(np.sqrt(np.mean(np.sum((projected - corners) ** 2, axis=-1))))
+    R, _ = cv2.Rodrigues(rvec)
+    world_from_board = _WORLD_FROM_BOARD
+    center_board = (-R.T @ tvec).ravel()
+    if (world_from_board @ center_board)[1] < 0:  # the camera must be above the floor: flip the board's y and z
+        world_from_board = world_from_board @ np.diag([1.0, -1.0, -1.0])
+    c2w = np.eye(4)
+    c2w[:3, :3] = world_from_board @ R.T
+    c2w[:3, 3] = world_from_board @ center_board + np.asarray(origin, dtype=float)
+    return c2w, rms
+
+
+def camera_record(intr: Intrinsics, c2w: np.ndarray, pose_rms_px: float) -> dict:
+    """One camera as written to cameras.json."""
+    return {"width": intr.width, "height": intr.height, "K": intr.K.tolist(), "dist": intr.dist.tolist(),
+            "c2w": c2w.tolist(), "rms_px": intr.rms_px, "pose_rms_px": pose_rms_px,
+            "per_view_rms_px": intr.per_view_rms_px, "skipped_images": intr.skipped, "axes": "opencv"}
