@@ -1,7 +1,11 @@
 # Shared helpers and wildcard constraints.
+import glob
+from pathlib import Path
+
+import yaml
 
 wildcard_constraints:
-    number=r"[0-9.eE+-]+",
+    experiment=r"[A-Za-z0-9_]+",
 
 
 def collapse_config():
@@ -24,3 +28,25 @@ def simulation_setup():
     """The keys of the collapse configuration that every simulation depends on."""
     keys = ("domain_size", "resolution", "radius", "height", "density", "gravity", "duration", "frames")
     return {k: collapse_config()[k] for k in keys}
+
+
+def experiment(name):
+    """The experiment config/experiments/<name>.yaml, validated against its schema (defaults filled in)."""
+    path = Path("config/experiments") / f"{name}.yaml"
+    if not path.is_file():
+        raise ValueError(f"{path}: no such experiment config")
+    with open(path) as f:
+        exp = yaml.safe_load(f) or {}
+    validate(exp, str(Path(workflow.basedir) / "workflow/schemas/experiment.schema.yaml"))
+    if exp["name"] != name:
+        raise ValueError(f"{path}: name {exp['name']!r} differs from the file name {name!r}")
+    return exp
+
+
+def calibration_images(name):
+    cams = experiment(name)["calibration"]["cameras"]
+    files = set()
+    for cam in cams.values():
+        files.update(glob.glob(cam["images"]))
+        files.add(cam["ground_image"])
+    return sorted(files)

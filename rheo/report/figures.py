@@ -1,0 +1,52 @@
+"""Figures written beside stage artifacts (PNG), for people and for the report."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+
+def camera_frusta(cameras: dict[str, dict], points: np.ndarray | None = None, title: str = "cameras"):
+    """Camera frusta (OpenCV axes, ``c2w``) in the world frame (y up), with optional points (the object or board)."""
+    fig = plt.figure(figsize=(6, 5))
+    ax = fig.add_subplot(projection="3d")
+    centers = []
+    for name, cam in cameras.items():
+        c2w = np.asarray(cam["c2w"])
+        K = np.asarray(cam["K"])
+        w, h = cam["width"], cam["height"]
+        scale = 0.2 * max(np.linalg.norm(c2w[:3, 3]), 1e-3)
+        corners = np.array([[0, 0], [w, 0], [w, h], [0, h]], dtype=float)
+        rays = np.c_[(corners - K[:2, 2]) / np.diag(K)[:2], np.ones(4)] * scale
+        world = rays @ c2w[:3, :3].T + c2w[:3, 3]
+        center = c2w[:3, 3]
+        centers.append(center)
+        for p in world:
+            ax.plot(*np.c_[center, p][[0, 2, 1]], color="tab:blue", lw=0.8)
+        loop = np.r_[world, world[:1]]
+        ax.plot(loop[:, 0], loop[:, 2], loop[:, 1], color="tab:blue", lw=0.8)
+        ax.text(center[0], center[2], center[1], name, fontsize=7)
+    if points is not None and len(points):
+        ax.scatter(points[:, 0], points[:, 2], points[:, 1], s=1, color="tab:orange")
+    extent = np.vstack([np.asarray(centers), *([] if points is None else [points])])
+    lo, hi = extent.min(axis=0), extent.max(axis=0)
+    mid, half = (lo + hi) / 2, (hi - lo).max() / 2 + 1e-3
+    ax.set_xlim(mid[0] - half, mid[0] + half)
+    ax.set_ylim(mid[2] - half, mid[2] + half)
+    ax.set_zlim(mid[1] - half, mid[1] + half)
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("z (m)")
+    ax.set_zlabel("y, up (m)")
+    ax.set_title(title)
+    return fig
+
+
+def save_figure(fig, path) -> None:
+    """Write a figure atomically as PNG."""
+    from rheo.io import write_atomic
+
+    write_atomic(path, lambda p: fig.savefig(p, format="png", dpi=110, bbox_inches="tight"))
+    plt.close(fig)

@@ -1,0 +1,30 @@
+"""A scratch copy of the workflow (Snakefile, rules, schemas, stages, configs) to run Snakemake in."""
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+class Workflow:
+    def __init__(self, root: Path) -> None:
+        self.root = root
+
+    def run(self, *args: str) -> subprocess.CompletedProcess:
+        executable = shutil.which("snakemake") or str(Path(sys.executable).parent / "snakemake")
+        env = {**os.environ, "PYTHONPATH": str(REPO)}
+        return subprocess.run([executable, *args, "-j2"], cwd=self.root, env=env, capture_output=True, text=True,
+                              timeout=600)
+
+
+@pytest.fixture
+def workflow(tmp_path) -> Workflow:
+    for item in ("Snakefile", "workflow", "stages", "config"):
+        src = REPO / item
+        (shutil.copytree if src.is_dir() else shutil.copy)(src, tmp_path / item)
+    return Workflow(tmp_path)

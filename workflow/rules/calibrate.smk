@@ -1,0 +1,17 @@
+# calibrate: intrinsics and distortion from checkerboard images, extrinsics from the board on the floor.
+
+
+rule calibrate:
+    input:
+        lambda w: calibration_images(w.experiment),
+    output:
+        cameras="results/{experiment}/calibration/cameras.json",
+        figure="results/{experiment}/calibration/cameras.png",
+    log:
+        "logs/{experiment}/calibrate.log",
+    benchmark:
+        "benchmarks/{experiment}/calibrate.tsv"
+    params:
+        calibration=lambda w: experiment(w.experiment)["calibration"],
+    script:
+        "../../stages/calibrate.py"
