@@ -49,7 +49,8 @@ class Collider:
         if not (math.isfinite(self.start) and self.stop >= self.start):
             raise BoundaryError(f"collider motion needs finite start <= stop, got start={self.start}, stop={self.stop}")
 
-    def geometry(self) -> list[float]:
+    def geometry(self, origin) -> list[float]:
+        """Shape parameters relative to the simulation domain's corner ``origin``."""
         raise NotImplementedError
 
     def parameters(self) -> list[float]:
@@ -68,8 +69,8 @@ class Floor(Collider):
         super().__post_init__()
         _finite("height", self.height)
 
-    def geometry(self) -> list[float]:
-        return [self.height]
+    def geometry(self, origin) -> list[float]:
+        return [self.height - origin[1]]
 
 
 @dataclass(frozen=True)
@@ -86,8 +87,8 @@ class Box(Collider):
         if not all(math.isfinite(h) and h > 0 for h in self.half_extents):
             raise BoundaryError(f"box half extents {self.half_extents!r} must be finite and > 0")
 
-    def geometry(self) -> list[float]:
-        return [*self.center, *self.half_extents]
+    def geometry(self, origin) -> list[float]:
+        return [*(c - o for c, o in zip(self.center, origin, strict=True)), *self.half_extents]
 
 
 @dataclass(frozen=True)
@@ -115,8 +116,9 @@ class Cup(Collider):
             if not (math.isfinite(value) and value > 0):
                 raise BoundaryError(f"cup {name} = {value!r} must be finite and > 0")
 
-    def geometry(self) -> list[float]:
-        return [*self.axis, self.rim_height, self.height, self.rim_radius, self.top_radius, self.thickness]
+    def geometry(self, origin) -> list[float]:
+        return [self.axis[0] - origin[0], self.axis[1] - origin[2], self.rim_height - origin[1], self.height,
+                self.rim_radius, self.top_radius, self.thickness]
 
 
 def lifted_cup(speed: float, start: float = 0.0, **geometry: float) -> Cup:
@@ -140,12 +142,13 @@ class ColliderArrays:
     parameters: torch.Tensor  # (n, 4), differentiable
 
 
-def pack(colliders: tuple[Collider, ...] | list[Collider]) -> ColliderArrays:
+def pack(colliders: tuple[Collider, ...] | list[Collider], origin=(0.0, 0.0, 0.0)) -> ColliderArrays:
+    """Colliders as kernel arrays, their geometry relative to the domain corner ``origin``."""
     if len(colliders) > k.MAX_COLLIDERS:
         raise BoundaryError(f"{len(colliders)} colliders given; at most {k.MAX_COLLIDERS} are supported")
     geometry = []
     for c in colliders:
-        g = c.geometry()
+        g = c.geometry(origin)
         geometry.append(g + [0.0] * (k.N_GEOM - len(g)))
     return ColliderArrays(
         shapes=[c.shape for c in colliders],

@@ -57,7 +57,7 @@ class Trajectory:
 
 
 class Simulator:
-    """A 3D MLS-MPM simulator on the cube [0, domain_size]^3 with ``resolution`` cells per axis.
+    """A 3D MLS-MPM simulator on the cube ``domain_origin`` + [0, domain_size]^3 with ``resolution`` cells per axis.
 
     ``gravity`` is a vector in m/s^2 (y is up). Particles must stay ``kernels.BOUND`` cells away from the domain faces,
     which act as slip walls. ``checkpoint_mb`` bounds the memory kept for the backward pass.
@@ -66,7 +66,7 @@ class Simulator:
     def __init__(self, material: Material, *, resolution: int = 32, domain_size: float = 1.0,
                  colliders: tuple[Collider, ...] | list[Collider] = (), gravity=(0.0, -9.8, 0.0),
                  dtype: torch.dtype = torch.float32, cfl: float = 0.4, max_halvings: int = 4,
-                 checkpoint_mb: float = 1024.0) -> None:
+                 checkpoint_mb: float = 1024.0, domain_origin=(0.0, 0.0, 0.0)) -> None:
         if not isinstance(material, Material):
             raise MaterialError(f"expected a Material, got {material!r}")
         if not (isinstance(resolution, int) and resolution >= 2 * kernels.BOUND + 2):
@@ -81,9 +81,13 @@ class Simulator:
         self.material = material
         self.resolution = resolution
         self.domain_size = float(domain_size)
+        origin = tuple(float(o) for o in domain_origin)
+        if len(origin) != 3 or not all(math.isfinite(o) for o in origin):
+            raise SimulationError(f"domain origin {domain_origin!r} must be three finite numbers")
+        self.domain_origin = origin
         self.dx = self.domain_size / resolution
         self.colliders = tuple(colliders)
-        self.collider_arrays = pack(self.colliders)
+        self.collider_arrays = pack(self.colliders, self.domain_origin)
         self.gravity = gravity
         self.dtype = dtype
         self.scalar = kernels.scalar_type(dtype)
@@ -134,14 +138,17 @@ class Simulator:
             raise SimulationError(f"initial positions must have shape (N, 3) with N > 0, got {tuple(x0.shape)}")
         if not torch.isfinite(x0).all():
             raise SimulationError("initial positions contain NaN or infinite values")
-        lo, hi = kernels.BOUND * self.dx, self.domain_size - kernels.BOUND * self.dx
+        margin = kernels.BOUND * self.dx
+        lo = torch.tensor(self.domain_origin, dtype=x0.dtype) + margin
+        hi = lo + self.domain_size - 2 * margin
         bad = ((x0 < lo) | (x0 > hi)).any(dim=1)
         if bad.any():
             i = int(torch.nonzero(bad)[0])
+            bounds = ", ".join(f"{a} in [{lo[k]:.4g}, {hi[k]:.4g}]" for k, a in enumerate("xyz"))
             raise SimulationError(
                 f"{int(bad.sum())} particle(s) lie outside the simulation domain, e.g. particle {i} at "
-                f"{x0[i].tolist()}: all coordinates must lie in [{lo:.4g}, {hi:.4g}] m "
-                f"(domain {self.domain_size:g} m, {kernels.BOUND} boundary cells of {self.dx:.4g} m)")
+                f"{x0[i].tolist()}: positions must have {bounds} m (domain {self.domain_size:g} m from "
+                f"{list(self.domain_origin)}, {kernels.BOUND} boundary cells of {self.dx:.4g} m)")
 
     # ------------------------------------------------------------------ rollout
 
@@ -157,6 +164,7 @@ class Simulator:
         """
         x0 = x0.to(self.dtype)
         self._check_particles(x0.detach())
+        origin = torch.tensor(self.domain_origin, dtype=self.dtype)
         if not (isinstance(frames, int) and frames >= 1):
             raise SimulationError(f"frames = {frames!r} must be an integer >= 1")
         if not (math.isfinite(frame_dt) and frame_dt > 0):
@@ -192,7 +200,7 @@ class Simulator:
         for attempt in range(self.max_halvings + 1):
             run = _Run(self, material, dt, substeps, frames, particle_volume, progress)
             try:
-                x, v, C, F = _RolloutFunction.apply(run, x0, v0, kernel_mat, bnd)
+                x, v, C, F = _RolloutFunction.apply(run, x0 - origin, v0, kernel_mat, bnd)
                 break
             except _Unstable as err:
                 if attempt == self.max_halvings:
@@ -204,7 +212,7 @@ class Simulator:
                                err.step, dt, dt / 2)
                 dt, substeps = dt / 2, substeps * 2
         times = torch.arange(frames + 1, dtype=self.dtype) * frame_dt
-        return Trajectory(x=x, v=v, C=C, F=F, times=times, dt=dt, substeps=substeps)
+        return Trajectory(x=x + origin, v=v, C=C, F=F, times=times, dt=dt, substeps=substeps)
 
 
 class _Buffers:
