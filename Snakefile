@@ -13,6 +13,7 @@ validate(config, "workflow/schemas/config.schema.yaml")
 include: "workflow/rules/common.smk"
 include: "workflow/rules/thesis.smk"
 include: "workflow/rules/calibrate.smk"
+include: "workflow/rules/proxy.smk"
 
 
 rule all:

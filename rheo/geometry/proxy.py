@@ -134,3 +134,33 @@ def _positive(**values: float) -> None:
     for name, value in values.items():
         if not (math.isfinite(value) and value > 0):
             raise ProxyError(f"proxy {name} = {value!r} must be finite and > 0")
+
+
+_REQUIRED = {"truncated_cone": ("base_diameter", "top_diameter", "height"), "spheroid": ("radius", "height"),
+             "cylinder": ("radius", "height"), "box": ("extents",), "mesh": ("mesh",)}
+
+
+def from_config(cfg: dict) -> tuple[trimesh.Trimesh, float | None]:
+    """The proxy mesh described by an experiment's ``proxy`` section, placed in the world; and its analytic volume
+    (None for a mesh file)."""
+    shape = cfg["shape"]
+    missing = [key for key in _REQUIRED[shape] if key not in cfg]
+    if missing:
+        raise ProxyError(f"proxy shape {shape!r} needs {', '.join(missing)}")
+    s = cfg.get("scale", 1.0)
+    if shape == "truncated_cone":
+        args = (cfg["base_diameter"] * s, cfg["top_diameter"] * s, cfg["height"] * s)
+        mesh, volume = truncated_cone(*args), truncated_cone_volume(*args)
+    elif shape == "spheroid":
+        r, h = cfg["radius"] * s, cfg["height"] * s
+        mesh, volume = spheroid(r, h), 2 / 3 * math.pi * r * r * h
+    elif shape == "cylinder":
+        r, h = cfg["radius"] * s, cfg["height"] * s
+        mesh, volume = cylinder(r, h), math.pi * r * r * h
+    elif shape == "box":
+        extents = [e * s for e in cfg["extents"]]
+        mesh, volume = box(extents), float(np.prod(extents))
+    else:
+        mesh, volume = load_mesh(cfg["mesh"], scale=s), None
+    mesh.apply_translation(cfg.get("position", (0.0, 0.0, 0.0)))
+    return mesh, volume

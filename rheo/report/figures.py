@@ -50,3 +50,16 @@ def save_figure(fig, path) -> None:
 
     write_atomic(path, lambda p: fig.savefig(p, format="png", dpi=110, bbox_inches="tight"))
     plt.close(fig)
+
+
+def particle_views(points: np.ndarray, title: str = "particles"):
+    """Front (x-y), side (z-y) and top (x-z) views of a particle set."""
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.6))
+    for ax, (a, b, label) in zip(axes, [(0, 1, "front: x, y"), (2, 1, "side: z, y"), (0, 2, "top: x, z")],
+                                 strict=True):
+        ax.scatter(points[:, a], points[:, b], s=0.5, alpha=0.4)
+        ax.set_aspect("equal")
+        ax.set_title(label)
+        ax.grid(alpha=0.3)
+    fig.suptitle(title)
+    return fig
