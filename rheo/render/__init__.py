@@ -1,0 +1,1 @@
+"""Renderers: the virtual lab's splat renderer (a different model from the fit's, so no inverse crime)."""
