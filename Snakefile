@@ -14,6 +14,7 @@ include: "workflow/rules/common.smk"
 include: "workflow/rules/thesis.smk"
 include: "workflow/rules/calibrate.smk"
 include: "workflow/rules/proxy.smk"
+include: "workflow/rules/synthesize.smk"
 
 
 rule all:

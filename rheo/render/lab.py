@@ -54,7 +54,7 @@ def _floor_texture(x: np.ndarray, z: np.ndarray) -> np.ndarray:
     return tone[..., None] * np.array([0.74, 0.60, 0.45])
 
 
-def _board_texture(x: np.ndarray, z: np.ndarray, board: FloorBoard) -> tuple[np.ndarray, np.ndarray]:
+def board_texture(x: np.ndarray, z: np.ndarray, board: FloorBoard) -> tuple[np.ndarray, np.ndarray]:
     """Board colours and where the board (with a one-square white margin) covers the floor."""
     u = (x - board.origin[0]) / board.square + 1.0  # squares from the board's outer corner
     v = (z - board.origin[1]) / board.square + 1.0
@@ -104,11 +104,12 @@ def render(camera: Camera, points: np.ndarray | None = None, spacing: float | No
     down = dirs[..., 1] < -1e-9
     t = np.where(down, -origin[1] / np.where(down, dirs[..., 1], -1.0), np.inf)
     hit = origin + t[..., None] * dirs
-    on_floor = down & (np.abs(hit[..., 0]) < scene.floor_extent + 0.5) & (np.abs(hit[..., 2]) < scene.floor_extent + 0.5)
+    extent = scene.floor_extent + 0.5
+    on_floor = down & (np.abs(hit[..., 0]) < extent) & (np.abs(hit[..., 2]) < extent)
     x, z = np.where(on_floor, hit[..., 0], 0.0), np.where(on_floor, hit[..., 2], 0.0)
     floor = _floor_texture(x, z)
     if board is not None:
-        board_rgb, on_board = _board_texture(x, z, board)
+        board_rgb, on_board = board_texture(x, z, board)
         floor = np.where(on_board[..., None], board_rgb, floor)
     shade = np.full(x.shape, 0.55 + 0.45 * light[1])
     if points is not None and len(points):

@@ -56,14 +56,51 @@ def read_gray(path: str | Path) -> np.ndarray:
     return image
 
 
-def find_corners(gray: np.ndarray, board: Board) -> np.ndarray | None:
-    """Sub-pixel inner corners (N, 1, 2) of ``board`` in ``gray``, or None where the board is not found."""
+def _grid_residual(corners: np.ndarray, board: Board) -> float:
+    """RMS distance (px) of the corners from the best plane-to-image homography of the board grid."""
+    grid = board.object_points()[:, :2]
+    H, _ = cv2.findHomography(grid, corners.reshape(-1, 2), 0)
+    fitted = cv2.perspectiveTransform(grid[None], H)[0]
+    return float(np.sqrt(np.mean(np.sum((fitted - corners.reshape(-1, 2)) ** 2, axis=1))))
+
+
+def find_corners(gray: np.ndarray, board: Board, max_grid_residual: float = 2.5) -> np.ndarray | None:
+    """Sub-pixel inner corners (N, 1, 2) of ``board`` in ``gray``, or None where the board is not found.
+
+    OpenCV's classic detector with corner refinement (the one behind OpenCV's reference calibrations). Under strong
+    foreshortening it can return a grid that is not a plane board's (homography residual above
+    ``max_grid_residual`` px; lens distortion alone stays well below); then OpenCV's sector-based detector decides.
+    """
+    size = (board.columns, board.rows)
     flags = cv2.CALIB_CB_ADAPTIVE_THRESH + cv2.CALIB_CB_NORMALIZE_IMAGE
-    found, corners = cv2.findChessboardCorners(gray, (board.columns, board.rows), flags=flags)
-    if not found:
-        return None
-    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
-    return cv2.cornerSubPix(gray, corners, (11, 11), (-1, -1), criteria)
+    found, corners = cv2.findChessboardCorners(gray, size, flags=flags)
+    if found:
+        criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 100, 1e-4)
+        # the refinement window must stay inside the squares around each corner
+        c = corners.reshape(board.rows, board.columns, 2)
+        side = min(np.linalg.norm(np.diff(c, axis=0), axis=-1).min(), np.linalg.norm(np.diff(c, axis=1), axis=-1).min())
+        half = int(np.clip(0.5 * side, 2, 11))
+        corners = cv2.cornerSubPix(gray, corners, (half, half), (-1, -1), criteria)
+        if _grid_residual(corners, board) <= max_grid_residual:
+            return corners
+    found_sb, corners_sb = cv2.findChessboardCornersSB(gray, size,
+                                                       flags=cv2.CALIB_CB_EXHAUSTIVE | cv2.CALIB_CB_ACCURACY)
+    if found_sb and (not found or _grid_residual(corners_sb, board) < _grid_residual(corners, board)):
+        return corners_sb.astype(np.float32)
+    return corners if found else None
+
+
+def canonical_order(gray: np.ndarray, corners: np.ndarray, board: Board) -> np.ndarray:
+    """Corners ordered so that the square diagonally inside the first corner is dark: the same board then gives
+    the same world frame from any side (OpenCV may return the order rotated by 180 degrees)."""
+    c = corners.reshape(-1, 2)
+    probe = c[0] + 0.5 * ((c[1] - c[0]) + (c[board.columns] - c[0]))
+    far = c[-1] + 0.5 * ((c[-2] - c[-1]) + (c[-1 - board.columns] - c[-1]))
+    x0, y0 = np.clip(np.round(probe).astype(int), 0, np.array(gray.shape[::-1]) - 1)
+    x1, y1 = np.clip(np.round(far).astype(int), 0, np.array(gray.shape[::-1]) - 1)
+    if int(gray[y0, x0]) > int(gray[y1, x1]):
+        return corners[::-1].copy()
+    return corners
 
 
 def calibrate_intrinsics(images: Sequence[str | Path], board: Board, *, fix_aspect_ratio: bool = False,
@@ -114,6 +151,7 @@ def ground_pose(gray: np.ndarray, board: Board, K: np.ndarray, dist: np.ndarray,
     corners = find_corners(gray, board)
     if corners is None:
         raise CalibrationError(f"{source}: no {board.columns}x{board.rows} board found for the world frame")
+    corners = canonical_order(gray, corners, board)
     obj = board.object_points()
     ok, rvec, tvec = cv2.solvePnP(obj, corners, K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
     if not ok:

@@ -30,8 +30,9 @@ class Camera:
         return uv.reshape(-1, 2), cam[:, 2]
 
     def pixel_rays(self) -> tuple[np.ndarray, np.ndarray]:
-        """World-space origin (3,) and unit directions (H, W, 3) through every pixel centre (distortion undone)."""
-        u, v = np.meshgrid(np.arange(self.width) + 0.5, np.arange(self.height) + 0.5)
+        """World-space origin (3,) and unit directions (H, W, 3) through every pixel centre (distortion undone).
+        As in OpenCV, pixel (i, j) has its centre at (u, v) = (j, i)."""
+        u, v = np.meshgrid(np.arange(self.width, dtype=float), np.arange(self.height, dtype=float))
         pixels = np.stack([u.ravel(), v.ravel()], axis=1).astype(np.float64)[:, None, :]
         normalized = cv2.undistortPointsIter(pixels, self.K, self.dist, None, None,
                                              (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10))

@@ -3,7 +3,7 @@
 
 rule calibrate:
     input:
-        lambda w: calibration_images(w.experiment),
+        lambda w: calibration_inputs(w.experiment),
     output:
         cameras="results/{experiment}/calibration/cameras.json",
         figure="results/{experiment}/calibration/cameras.png",
@@ -12,6 +12,6 @@ rule calibrate:
     benchmark:
         "benchmarks/{experiment}/calibrate.tsv"
     params:
-        calibration=lambda w: experiment(w.experiment)["calibration"],
+        calibration=lambda w: calibration_config(w.experiment),
     script:
         "../../stages/calibrate.py"

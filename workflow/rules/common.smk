@@ -44,9 +44,35 @@ def experiment(name):
 
 
 def calibration_images(name):
-    cams = experiment(name)["calibration"]["cameras"]
+    cams = calibration_config(name)["cameras"]
     files = set()
     for cam in cams.values():
         files.update(glob.glob(cam["images"]))
         files.add(cam["ground_image"])
     return sorted(files)
+
+
+def calibration_config(name):
+    """The calibration settings: the experiment's own, or for a virtual experiment the lab's board and images."""
+    exp = experiment(name)
+    if exp["kind"] != "virtual":
+        return exp["calibration"]
+    lab, rec = exp["lab"], f"results/{name}/recordings"
+    x, z = lab["ground_origin"]
+    cameras = {f"cam{c:02d}": {"images": f"{rec}/cam{c:02d}/checkerboard/*.png",
+                               "ground_image": f"{rec}/cam{c:02d}/ground_board.png", "ground_origin": [x, 0.0, z]}
+               for c in range(exp["cameras"]["count"])}
+    return {"board": lab["board"], "fix_aspect_ratio": True, "min_views": 3, "cameras": cameras}
+
+
+def calibration_inputs(name):
+    if experiment(name)["kind"] == "virtual":
+        return [f"results/{name}/recordings"]
+    return calibration_images(name)
+
+
+def virtual_experiment(name):
+    exp = experiment(name)
+    if exp["kind"] != "virtual":
+        raise ValueError(f"config/experiments/{name}.yaml: synthesize needs a virtual experiment (kind: virtual)")
+    return exp

@@ -1,0 +1,170 @@
+"""The virtual lab: simulate an experiment finer than any fit will, and film it with the lab renderer.
+
+Recordings layout (the same that ingest writes for real videos), per camera ``<cam>/``: ``frames/NNN.png``,
+``video.mp4``, ``clean_plate.png``, ``checkerboard/NN.png`` (board poses for intrinsics), ``ground_board.png`` (the
+board lying on the floor: the world frame) and, in the lab only, ``masks/NNN.png`` (true material masks).
+"""
+
+from __future__ import annotations
+
+import math
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import imageio.v2 as imageio
+import numpy as np
+import torch
+from tqdm.auto import tqdm
+
+from rheo.geometry.proxy import from_config, voxelize
+from rheo.physics import Floor, HerschelBulkley, Simulator, kernels
+from rheo.render.lab import FloorBoard, Scene, board_texture, render
+from rheo.vision.cameras import Camera, hemisphere
+
+
+@dataclass(frozen=True)
+class LabBoard:
+    """The lab's calibration board and how it is shown."""
+
+    columns: int = 9
+    rows: int = 6
+    square: float = 0.06
+    views: int = 16  # checkerboard images per camera for intrinsics
+    ground_origin: tuple[float, float] = (0.25, 0.35)  # first inner corner on the floor (x, z)
+
+
+def material(cfg: dict) -> HerschelBulkley:
+    """An experiment's material section as a rheo material (PAC-NeRF's sigma_y, eta converted)."""
+    common = {"mu": cfg["mu"], "lam": cfg["lam"], "density": cfg.get("density", 1000.0)}
+    if cfg["convention"] == "pacnerf":
+        return HerschelBulkley(tau_y=cfg["sigma_y"] / math.sqrt(3.0), K=cfg["eta"] / 2.0, n=1.0, **common)
+    return HerschelBulkley(tau_y=cfg["tau_y"], K=cfg["K"], n=cfg.get("n", 1.0), **common)
+
+
+def simulator(exp: dict, resolution: int, dtype=torch.float32) -> Simulator:
+    """The experiment's scene at ``resolution``: floor at y = 0, three grid cells below it in the domain."""
+    sim_cfg = exp["simulation"]
+    size = sim_cfg["domain_size"]
+    dx = size / resolution
+    return Simulator(material(exp["material"]), resolution=resolution, domain_size=size,
+                     domain_origin=(0.0, -kernels.BOUND * dx, 0.0), dtype=dtype,
+                     colliders=[Floor(height=0.0, contact=sim_cfg["floor"], friction=sim_cfg["floor_friction"])],
+                     gravity=sim_cfg["gravity"])
+
+
+def simulate_truth(exp: dict, progress: bool = True) -> dict:
+    """Particle positions at every recorded frame, simulated at the lab resolution."""
+    sim_cfg = exp["simulation"]
+    sim = simulator(exp, sim_cfg["lab_resolution"])
+    spacing = sim.dx / 2
+    mesh, _ = from_config(exp["proxy"])
+    particles = torch.as_tensor(voxelize(mesh, spacing).particles, dtype=torch.float32)
+    frames = sim_cfg["frames"] - 1
+    tr = sim.rollout(particles, torch.tensor(sim_cfg["initial_velocity"]), frames=frames,
+                     frame_dt=sim_cfg["duration"] / frames, particle_volume=spacing**3, progress=progress)
+    return {"positions": tr.x.numpy(), "times": tr.times.numpy(), "spacing": spacing, "dt": tr.dt}
+
+
+def cameras(exp: dict) -> list[Camera]:
+    c = exp["cameras"]
+    return hemisphere(c["count"], c["distance"], c["elevation_deg"], c["look_at"], c["width"], c["height"],
+                      c["fov_deg"], c["distortion"])
+
+
+def _supersampled(camera: Camera, factor: int) -> Camera:
+    """The same camera with ``factor`` x ``factor`` pixels per pixel (pixel centres at integers, as in OpenCV)."""
+    K = camera.K.copy()
+    K[0, 0] *= factor
+    K[1, 1] *= factor
+    K[:2, 2] = factor * K[:2, 2] + (factor - 1) / 2
+    return Camera(camera.width * factor, camera.height * factor, K, camera.dist, camera.c2w)
+
+
+def _downsample(image: np.ndarray, camera: Camera) -> np.ndarray:
+    return cv2.resize(image, (camera.width, camera.height), interpolation=cv2.INTER_AREA)
+
+
+def board_poses(camera: Camera, board: LabBoard, rng: np.random.Generator) -> list[np.ndarray]:
+    """Board-to-world transforms of ``board.views`` tilted boards filling about half of the camera's view."""
+    width = (board.columns + 1) * board.square
+    distance = width / (0.45 * camera.width / camera.K[0, 0])
+    center = np.array([(board.columns - 1) / 2, (board.rows - 1) / 2, 0.0]) * board.square
+    poses = []
+    for _ in range(board.views):
+        tilt = np.radians(rng.uniform(-40, 40, size=2))
+        R_board, _ = cv2.Rodrigues(np.array([tilt[0], tilt[1], rng.uniform(-0.3, 0.3)]))
+        shift = rng.uniform(-0.15, 0.15, size=2) * distance
+        cam_from_board = np.eye(4)
+        cam_from_board[:3, :3] = R_board
+        cam_from_board[:3, 3] = np.array([shift[0], shift[1], distance]) - R_board @ center
+        poses.append(camera.c2w @ cam_from_board)
+    return poses
+
+
+def render_board_view(camera: Camera, board: LabBoard, pose: np.ndarray, rng: np.random.Generator,
+                      noise: float = Scene.noise) -> np.ndarray:
+    """The board at ``pose`` (board-to-world) in front of a plain wall, anti-aliased by 3x supersampling."""
+    fine = _supersampled(camera, 3)
+    origin, dirs = fine.pixel_rays()
+    normal, point = pose[:3, 2], pose[:3, 3]
+    denom = dirs @ normal
+    t = np.where(np.abs(denom) > 1e-9, ((point - origin) @ normal) / np.where(np.abs(denom) > 1e-9, denom, 1), -1)
+    local = (origin + t[..., None] * dirs - point) @ pose[:3, :3]
+    spec = FloorBoard(board.columns, board.rows, board.square)
+    color, inside = board_texture(local[..., 0], local[..., 1], spec)
+    image = np.where((inside & (t > 0))[..., None], color, 0.6)
+    image = _downsample((np.clip(image, 0, 1) * 255).astype(np.float32), camera) / 255.0
+    image = image + rng.normal(0.0, noise, image.shape)
+    return (np.clip(image, 0, 1) * 255 + 0.5).astype(np.uint8)
+
+
+def _write_png(path: Path, image: np.ndarray) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(path), image[..., ::-1] if image.ndim == 3 else image)
+
+
+def write_recordings(out_dir: str | Path, exp: dict, truth: dict, board: LabBoard = LabBoard(), seed: int = 0,
+                     progress: bool = True) -> dict:
+    """Render every camera's frames, masks, clean plate and calibration images into ``out_dir`` (written to a
+    temporary folder first, then moved into place). Returns the truth record for truth.json."""
+    out_dir = Path(out_dir)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+    rng = np.random.default_rng(seed)
+    cams = cameras(exp)
+    fps = (len(truth["times"]) - 1) / float(truth["times"][-1])
+    floor_board = FloorBoard(board.columns, board.rows, board.square, board.ground_origin)
+    try:
+        for c, cam in enumerate(tqdm(cams, desc="render cameras", disable=not progress)):
+            cam_dir = tmp / f"cam{c:02d}"
+            fine = _supersampled(cam, 2)
+            frames = []
+            for f, points in enumerate(truth["positions"]):
+                image, mask = render(fine, points, truth["spacing"], rng=None)
+                image = _downsample(image.astype(np.float32), cam)
+                image = np.clip(image + rng.normal(0.0, 255 * Scene.noise, image.shape), 0, 255)
+                image = (image + 0.5).astype(np.uint8)
+                mask = _downsample(mask.astype(np.float32), cam) >= 0.5
+                _write_png(cam_dir / "frames" / f"{f:03d}.png", image)
+                _write_png(cam_dir / "masks" / f"{f:03d}.png", mask.astype(np.uint8) * 255)
+                frames.append(image)
+            imageio.mimwrite(cam_dir / "video.mp4", frames, fps=max(fps, 1.0), macro_block_size=1, quality=9)
+            plate, _ = render(fine, None, None, rng=None)
+            _write_png(cam_dir / "clean_plate.png", (_downsample(plate.astype(np.float32), cam) + 0.5).astype(np.uint8))
+            for i, pose in enumerate(board_poses(cam, board, rng)):
+                _write_png(cam_dir / "checkerboard" / f"{i:02d}.png", render_board_view(cam, board, pose, rng))
+            ground, _ = render(fine, None, None, board=floor_board, rng=None)
+            _write_png(cam_dir / "ground_board.png", (_downsample(ground.astype(np.float32), cam) + 0.5)
+                       .astype(np.uint8))
+        if out_dir.exists():
+            shutil.rmtree(out_dir)
+        tmp.rename(out_dir)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return {"cameras": {f"cam{c:02d}": cam.record() for c, cam in enumerate(cams)},
+            "board": {"columns": board.columns, "rows": board.rows, "square": board.square,
+                      "ground_origin": [board.ground_origin[0], 0.0, board.ground_origin[1]]},
+            "times": [float(t) for t in truth["times"]], "fps": fps}

@@ -1,0 +1,16 @@
+# synthesize: the virtual lab. Simulates a virtual experiment finer than any fit and films it with the lab renderer.
+
+
+rule synthesize:
+    output:
+        recordings=directory("results/{experiment}/recordings"),
+        truth="results/{experiment}/truth.json",
+        figure="results/{experiment}/synthesize.png",
+    log:
+        "logs/{experiment}/synthesize.log",
+    benchmark:
+        "benchmarks/{experiment}/synthesize.tsv"
+    params:
+        experiment=lambda w: virtual_experiment(w.experiment),
+    script:
+        "../../stages/synthesize.py"
