@@ -32,7 +32,7 @@ class LabBoard:
     columns: int = 9
     rows: int = 6
     square: float = 0.06
-    views: int = 16  # checkerboard images per camera for intrinsics
+    views: int = 30  # checkerboard images per camera for intrinsics
     ground_origin: tuple[float, float] = (0.25, 0.35)  # first inner corner on the floor (x, z)
 
 
@@ -90,13 +90,13 @@ def _downsample(image: np.ndarray, camera: Camera) -> np.ndarray:
 def board_poses(camera: Camera, board: LabBoard, rng: np.random.Generator) -> list[np.ndarray]:
     """Board-to-world transforms of ``board.views`` tilted boards filling about half of the camera's view."""
     width = (board.columns + 1) * board.square
-    distance = width / (0.45 * camera.width / camera.K[0, 0])
+    distance = width / (0.65 * camera.width / camera.K[0, 0])
     center = np.array([(board.columns - 1) / 2, (board.rows - 1) / 2, 0.0]) * board.square
     poses = []
     for _ in range(board.views):
         tilt = np.radians(rng.uniform(-40, 40, size=2))
         R_board, _ = cv2.Rodrigues(np.array([tilt[0], tilt[1], rng.uniform(-0.3, 0.3)]))
-        shift = rng.uniform(-0.15, 0.15, size=2) * distance
+        shift = rng.uniform(-0.22, 0.22, size=2) * distance
         cam_from_board = np.eye(4)
         cam_from_board[:3, :3] = R_board
         cam_from_board[:3, 3] = np.array([shift[0], shift[1], distance]) - R_board @ center

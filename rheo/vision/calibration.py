@@ -174,3 +174,17 @@ def camera_record(intr: Intrinsics, c2w: np.ndarray, pose_rms_px: float) -> dict
     return {"width": intr.width, "height": intr.height, "K": intr.K.tolist(), "dist": intr.dist.tolist(),
             "c2w": c2w.tolist(), "rms_px": intr.rms_px, "pose_rms_px": pose_rms_px,
             "per_view_rms_px": intr.per_view_rms_px, "skipped_images": intr.skipped, "axes": "opencv"}
+
+
+def pose_errors(estimated: dict, truth: dict, look_at=None) -> dict:
+    """Errors of one calibrated camera against the truth (both camera records): relative focal lengths and
+    principal point, rotation angle (degrees) and camera-centre distance relative to the camera's distance from
+    ``look_at`` (or from the world origin)."""
+    K, Kt = np.asarray(estimated["K"]), np.asarray(truth["K"])
+    c2w, c2w_t = np.asarray(estimated["c2w"]), np.asarray(truth["c2w"])
+    cos = np.clip((np.trace(c2w[:3, :3].T @ c2w_t[:3, :3]) - 1) / 2, -1.0, 1.0)
+    target = np.zeros(3) if look_at is None else np.asarray(look_at, float)
+    distance = np.linalg.norm(c2w_t[:3, 3] - target)
+    return {"fx": K[0, 0] / Kt[0, 0] - 1, "fy": K[1, 1] / Kt[1, 1] - 1, "cx": K[0, 2] / Kt[0, 2] - 1,
+            "cy": K[1, 2] / Kt[1, 2] - 1, "rotation_deg": float(np.degrees(np.arccos(cos))),
+            "translation_rel": float(np.linalg.norm(c2w[:3, 3] - c2w_t[:3, 3]) / distance)}
