@@ -96,7 +96,7 @@ def board_poses(camera: Camera, board: LabBoard, rng: np.random.Generator) -> li
     for _ in range(board.views):
         tilt = np.radians(rng.uniform(-40, 40, size=2))
         R_board, _ = cv2.Rodrigues(np.array([tilt[0], tilt[1], rng.uniform(-0.3, 0.3)]))
-        shift = rng.uniform(-0.22, 0.22, size=2) * distance
+        shift = rng.uniform(-0.22, 0.22, size=2) * distance  # boards reach the edges: a firm principal point
         cam_from_board = np.eye(4)
         cam_from_board[:3, :3] = R_board
         cam_from_board[:3, 3] = np.array([shift[0], shift[1], distance]) - R_board @ center
