@@ -14,7 +14,7 @@ from rheo.vision.cameras import hemisphere
                          ids=["pinhole", "phone-like distortion"])
 def test_lab_camera_is_recovered(tmp_path, distortion):
     camera = hemisphere(1, 2.0, [30.0, 30.0], [0.5, 0.1, 0.5], 480, 360, 40.0, distortion)[0]
-    board = LabBoard(9, 6, 0.08, views=20, ground_origin=(0.18, 0.3))
+    board = LabBoard(9, 6, 0.08, ground_origin=(0.18, 0.3))
     rng = np.random.default_rng(1)
     paths = []
     for i, pose in enumerate(board_poses(camera, board, rng)):

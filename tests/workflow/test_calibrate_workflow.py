@@ -31,7 +31,7 @@ def test_calibrate_opencv_left(workflow):
     assert len(left["dist"]) == 5 and (left["width"], left["height"]) == (640, 480)
     assert np.allclose(c2w[:3, :3] @ c2w[:3, :3].T, np.eye(3), atol=1e-9) and c2w[1, 3] > 0  # above the floor
     assert (workflow.root / "results/opencv_left/calibration/cameras.png").stat().st_size > 10_000
-    assert "fx=536" in (workflow.root / "logs/opencv_left/calibrate.log").read_text()
+    assert "camera left: fx=" in (workflow.root / "logs/opencv_left/calibrate.log").read_text()
 
 
 def test_bad_experiment_key_is_named(workflow):
