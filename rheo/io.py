@@ -37,3 +37,20 @@ def write_text_atomic(path: str | os.PathLike, text: str) -> None:
 def read_json(path: str | os.PathLike):
     with open(path) as f:
         return json.load(f)
+
+
+def write_atomic_dir(path: str | os.PathLike, write: Callable[[Path], None]) -> None:
+    """Fill a temporary folder beside ``path`` with ``write``, then move it into place (replacing ``path``)."""
+    import shutil
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    try:
+        write(tmp)
+        if path.exists():
+            shutil.rmtree(path)
+        os.replace(tmp, path)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise

@@ -63,3 +63,21 @@ def particle_views(points: np.ndarray, title: str = "particles"):
         ax.grid(alpha=0.3)
     fig.suptitle(title)
     return fig
+
+
+def mask_overlays(items: list[tuple[str, np.ndarray, np.ndarray]], columns: int = 4):
+    """Frames with their masks outlined and tinted: (title, RGB image, boolean mask) per panel."""
+    from scipy import ndimage
+
+    rows = max(1, -(-len(items) // columns))
+    fig, axes = plt.subplots(rows, columns, figsize=(3.2 * columns, 3.0 * rows), squeeze=False)
+    for ax in axes.ravel():
+        ax.axis("off")
+    for ax, (title, image, mask) in zip(axes.ravel(), items, strict=False):
+        shown = image.astype(float) / 255.0
+        shown[mask] = 0.6 * shown[mask] + 0.4 * np.array([0.1, 0.4, 1.0])
+        edge = mask & ~ndimage.binary_erosion(mask)
+        shown[edge] = [1.0, 1.0, 0.0]
+        ax.imshow(shown)
+        ax.set_title(title, fontsize=8)
+    return fig

@@ -5,6 +5,7 @@ import json
 import cv2
 import imageio.v2 as imageio
 import numpy as np
+import yaml
 
 from rheo.vision.calibration import pose_errors
 
@@ -35,3 +36,24 @@ def test_tiny_virtual_lab_and_calibration(workflow):
         assert max(abs(errors[k]) for k in ("fx", "fy", "cx", "cy")) < 0.02, errors
         assert errors["rotation_deg"] < 0.5 and errors["translation_rel"] < 0.02, errors
     assert (root / "synthesize.png").is_file() and (root / "calibration/cameras.png").is_file()
+
+
+def test_tiny_matte_and_rerun_scope(workflow):
+    run = workflow.run("results/tiny/matte.json")
+    assert run.returncode == 0, run.stderr[-3000:]
+    report = json.loads((workflow.root / "results/tiny/matte.json").read_text())
+    assert report["mean_iou"] > 0.95 and len(report["views"]) == 3
+    masks = sorted((workflow.root / "results/tiny/matte/cam00/masks").glob("*.png"))
+    assert len(masks) == 4 and (workflow.root / "results/tiny/matte.png").is_file()
+    # a matting parameter reruns matte and nothing upstream
+    path = workflow.root / "config/experiments/tiny.yaml"
+    exp = yaml.safe_load(path.read_text())
+    exp["matte"] = {"close_px": 3}
+    path.write_text(yaml.safe_dump(exp))
+    plan = workflow.run("-n", "results/tiny/matte.json")
+    assert plan.returncode == 0, plan.stderr[-3000:]
+    assert "rule matte" in plan.stdout or "matte" in plan.stdout.split("Job stats")[-1]
+    assert "synthesize" not in plan.stdout
+    # and one stage can be rerun on request
+    again = workflow.run("results/tiny/matte.json", "-R", "matte", "-n")
+    assert again.returncode == 0 and "synthesize" not in again.stdout

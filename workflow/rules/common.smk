@@ -1,5 +1,6 @@
 # Shared helpers and wildcard constraints.
 import glob
+import json
 from pathlib import Path
 
 import yaml
@@ -40,7 +41,8 @@ def experiment(name):
     validate(exp, str(Path(workflow.basedir) / "workflow/schemas/experiment.schema.yaml"))
     if exp["name"] != name:
         raise ValueError(f"{path}: name {exp['name']!r} differs from the file name {name!r}")
-    return exp
+    # keys sorted, so that params (compared as text by Snakemake) do not change with the order in the file
+    return json.loads(json.dumps(exp, sort_keys=True))
 
 
 def calibration_images(name):
@@ -72,7 +74,8 @@ def calibration_inputs(name):
 
 
 def virtual_experiment(name):
+    """The parts of a virtual experiment that the virtual lab depends on (not matting or fitting settings)."""
     exp = experiment(name)
     if exp["kind"] != "virtual":
         raise ValueError(f"config/experiments/{name}.yaml: synthesize needs a virtual experiment (kind: virtual)")
-    return exp
+    return {key: exp[key] for key in ("name", "proxy", "material", "simulation", "cameras", "lab")}

@@ -1,0 +1,18 @@
+# matte: material masks from the frames and the clean plate (classical, no learned weights).
+
+
+rule matte:
+    input:
+        recordings="results/{experiment}/recordings",
+    output:
+        masks=directory("results/{experiment}/matte"),
+        report="results/{experiment}/matte.json",
+        figure="results/{experiment}/matte.png",
+    log:
+        "logs/{experiment}/matte.log",
+    benchmark:
+        "benchmarks/{experiment}/matte.tsv"
+    params:
+        settings=lambda w: experiment(w.experiment)["matte"],
+    script:
+        "../../stages/matte.py"
