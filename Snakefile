@@ -15,6 +15,7 @@ include: "workflow/rules/thesis.smk"
 include: "workflow/rules/calibrate.smk"
 include: "workflow/rules/proxy.smk"
 include: "workflow/rules/synthesize.smk"
+include: "workflow/rules/ingest.smk"
 include: "workflow/rules/matte.smk"
 
 

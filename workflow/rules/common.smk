@@ -79,3 +79,30 @@ def virtual_experiment(name):
     if exp["kind"] != "virtual":
         raise ValueError(f"config/experiments/{name}.yaml: synthesize needs a virtual experiment (kind: virtual)")
     return {key: exp[key] for key in ("name", "proxy", "material", "simulation", "cameras", "lab")}
+
+
+def experiments_of_kind(kind):
+    """A wildcard pattern matching the experiments of one kind (virtual or real), from config/experiments."""
+    names = []
+    for path in sorted(Path("config/experiments").glob("*.yaml")):
+        with open(path) as f:
+            exp = yaml.safe_load(f) or {}
+        if exp.get("kind", "real") == kind:
+            names.append(path.stem)
+    return "|".join(names) if names else "(?!)"
+
+
+def recording_config(name):
+    exp = experiment(name)
+    if "recording" not in exp:
+        raise ValueError(f"config/experiments/{name}.yaml: a real experiment needs a recording section to ingest")
+    return exp["recording"]
+
+
+def recording_sources(name):
+    files = []
+    for cam in recording_config(name)["cameras"].values():
+        files.append(cam["source"])
+        if cam.get("clean_plate"):
+            files.append(cam["clean_plate"])
+    return files

@@ -6,6 +6,8 @@ rule synthesize:
         recordings=directory("results/{experiment}/recordings"),
         truth="results/{experiment}/truth.json",
         figure="results/{experiment}/synthesize.png",
+    wildcard_constraints:
+        experiment=experiments_of_kind("virtual"),
     log:
         "logs/{experiment}/synthesize.log",
     benchmark:

@@ -1,0 +1,18 @@
+# ingest: a real recording (video or image folder per camera) into the recordings layout that synthesize also writes.
+
+
+rule ingest:
+    input:
+        lambda w: recording_sources(w.experiment),
+    output:
+        recordings=directory("results/{experiment}/recordings"),
+    wildcard_constraints:
+        experiment=experiments_of_kind("real"),
+    log:
+        "logs/{experiment}/ingest.log",
+    benchmark:
+        "benchmarks/{experiment}/ingest.tsv"
+    params:
+        recording=lambda w: recording_config(w.experiment),
+    script:
+        "../../stages/ingest.py"
