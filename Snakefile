@@ -17,6 +17,7 @@ include: "workflow/rules/proxy.smk"
 include: "workflow/rules/synthesize.smk"
 include: "workflow/rules/ingest.smk"
 include: "workflow/rules/matte.smk"
+include: "workflow/rules/inverse.smk"
 
 
 rule all:

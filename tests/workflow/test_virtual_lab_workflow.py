@@ -57,3 +57,12 @@ def test_tiny_matte_and_rerun_scope(workflow):
     # and one stage can be rerun on request
     again = workflow.run("results/tiny/matte.json", "-R", "matte", "-n")
     assert again.returncode == 0 and "synthesize" not in again.stdout
+
+
+def test_dag_lists_every_stage_through_the_report(workflow):
+    plan = workflow.run("-n", "results/cup/report.html")
+    assert plan.returncode == 0, plan.stderr[-3000:]
+    stats = plan.stdout.split("Job stats")[1]
+    for stage in ("synthesize", "calibrate", "matte", "proxy", "seed", "velocity", "fit_warmup", "fit", "diagnose",
+                  "report"):
+        assert f"\n{stage} " in stats, stage
