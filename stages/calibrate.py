@@ -16,12 +16,14 @@ cameras = {}
 for name, cam in cfg["cameras"].items():
     images = sorted(glob.glob(cam["images"]))
     intr = calibrate_intrinsics(images, board, fix_aspect_ratio=cfg["fix_aspect_ratio"], min_views=cfg["min_views"])
-    c2w, pose_rms = ground_pose(read_gray(cam["ground_image"]), board, intr.K, intr.dist,
-                                origin=cam["ground_origin"], source=cam["ground_image"])
+    c2w, pose_rms, sigma = ground_pose(read_gray(cam["ground_image"]), board, intr.K, intr.dist,
+                                       origin=cam["ground_origin"], source=cam["ground_image"])
     log.info("camera %s: fx=%.2f fy=%.2f cx=%.2f cy=%.2f, RMS %.3f px over %d images (%d skipped), ground-board "
-             "RMS %.3f px, centre at %s m", name, intr.K[0, 0], intr.K[1, 1], intr.K[0, 2], intr.K[1, 2],
-             intr.rms_px, len(intr.per_view_rms_px), len(intr.skipped), pose_rms, c2w[:3, 3].round(4).tolist())
-    cameras[name] = camera_record(intr, c2w, pose_rms)
+             "RMS %.3f px (1 sigma: %.3f deg, %.2g m), centre at %s m", name, intr.K[0, 0], intr.K[1, 1],
+             intr.K[0, 2], intr.K[1, 2],
+             intr.rms_px, len(intr.per_view_rms_px), len(intr.skipped), pose_rms, sigma["rotation_deg"],
+             sigma["center_m"], c2w[:3, 3].round(4).tolist())
+    cameras[name] = camera_record(intr, c2w, pose_rms, sigma)
 write_json_atomic(smk.output.cameras, {"world": "y up, floor at y = 0, metres; camera axes OpenCV",
                                        "board": cfg["board"], "cameras": cameras})
 corners = board.object_points()

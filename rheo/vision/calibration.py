@@ -143,8 +143,9 @@ def calibrate_intrinsics(images: Sequence[str | Path], board: Board, *, fix_aspe
 
 
 def ground_pose(gray: np.ndarray, board: Board, K: np.ndarray, dist: np.ndarray, *,
-                origin: Sequence[float] = (0.0, 0.0, 0.0), source: str = "image") -> tuple[np.ndarray, float]:
-    """Camera-to-world transform (4x4) from a photo of the board lying on the floor, and the reprojection RMS (px).
+                origin: Sequence[float] = (0.0, 0.0, 0.0), source: str = "image") -> tuple[np.ndarray, float, dict]:
+    """Camera-to-world transform (4x4) from a photo of the board lying on the floor, the reprojection RMS (px), and
+    the pose's 1-sigma uncertainty (rotation in degrees, camera centre in m) from the Levenberg-Marquardt fit.
 
     The world frame: the board's first corner at ``origin`` (x, z on the floor), y up out of the floor.
     """
@@ -156,8 +157,13 @@ def ground_pose(gray: np.ndarray, board: Board, K: np.ndarray, dist: np.ndarray,
     ok, rvec, tvec = cv2.solvePnP(obj, corners, K, dist, flags=cv2.SOLVEPNP_ITERATIVE)
     if not ok:
         raise CalibrationError(f"{source}: the board pose could not be solved")
-    projected, _ = cv2.projectPoints(obj, rvec, tvec, K, dist)
+    rvec, tvec = cv2.solvePnPRefineLM(obj, corners, K, dist, rvec, tvec)
+    projected, jacobian = cv2.projectPoints(obj, rvec, tvec, K, dist)
+    residual = (projected - corners).reshape(-1)
     rms = float(np.sqrt(np.mean(np.sum((projected - corners) ** 2, axis=-1))))
+    J = jacobian[:, :6]  # d(pixels) / d(rvec, tvec)
+    sigma2 = float(residual @ residual) / max(len(residual) - 6, 1)
+    covariance = sigma2 * np.linalg.pinv(J.T @ J)
     R, _ = cv2.Rodrigues(rvec)
     world_from_board = _WORLD_FROM_BOARD
     center_board = (-R.T @ tvec).ravel()
@@ -166,13 +172,22 @@ def ground_pose(gray: np.ndarray, board: Board, K: np.ndarray, dist: np.ndarray,
     c2w = np.eye(4)
     c2w[:3, :3] = world_from_board @ R.T
     c2w[:3, 3] = world_from_board @ center_board + np.asarray(origin, dtype=float)
-    return c2w, rms
+
+    def center(params: np.ndarray) -> np.ndarray:
+        Rp, _ = cv2.Rodrigues(params[:3])
+        return -Rp.T @ params[3:]
+
+    params = np.r_[rvec.ravel(), tvec.ravel()]
+    dC = np.stack([(center(params + h) - center(params - h)) / 2e-7 for h in np.eye(6) * 1e-7], axis=1)
+    uncertainty = {"rotation_deg": float(np.degrees(np.sqrt(np.trace(covariance[:3, :3])))),
+                   "center_m": float(np.sqrt(np.trace(dC @ covariance @ dC.T)))}
+    return c2w, rms, uncertainty
 
 
-def camera_record(intr: Intrinsics, c2w: np.ndarray, pose_rms_px: float) -> dict:
+def camera_record(intr: Intrinsics, c2w: np.ndarray, pose_rms_px: float, pose_sigma: dict | None = None) -> dict:
     """One camera as written to cameras.json."""
     return {"width": intr.width, "height": intr.height, "K": intr.K.tolist(), "dist": intr.dist.tolist(),
-            "c2w": c2w.tolist(), "rms_px": intr.rms_px, "pose_rms_px": pose_rms_px,
+            "c2w": c2w.tolist(), "rms_px": intr.rms_px, "pose_rms_px": pose_rms_px, "pose_sigma": pose_sigma,
             "per_view_rms_px": intr.per_view_rms_px, "skipped_images": intr.skipped, "axes": "opencv"}
 
 

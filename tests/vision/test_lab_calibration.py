@@ -25,8 +25,9 @@ def test_lab_camera_is_recovered(tmp_path, distortion):
     intr = calibrate_intrinsics(paths, spec, fix_aspect_ratio=True)
     ground, _ = render(camera, board=FloorBoard(9, 6, 0.08, (0.18, 0.3)), rng=rng)
     gray = (ground.astype(float) @ [0.299, 0.587, 0.114]).astype(np.uint8)
-    c2w, rms = ground_pose(gray, spec, intr.K, intr.dist, origin=(0.18, 0.0, 0.3))
-    errors = pose_errors(camera_record(intr, c2w, rms), camera.record(), look_at=[0.5, 0.1, 0.5])
+    c2w, rms, sigma = ground_pose(gray, spec, intr.K, intr.dist, origin=(0.18, 0.0, 0.3))
+    errors = pose_errors(camera_record(intr, c2w, rms, sigma), camera.record(), look_at=[0.5, 0.1, 0.5])
+    assert 0 < sigma["rotation_deg"] < 0.2 and 0 < sigma["center_m"] < 0.01
     for key in ("fx", "fy", "cx", "cy"):
         assert abs(errors[key]) < 0.005, errors
     assert errors["rotation_deg"] < 0.2 and errors["translation_rel"] < 0.005, errors
