@@ -77,7 +77,7 @@ def test_ground_board_gives_the_camera_pose_in_the_world_frame(eye):
     center = np.array([4 * 0.03, 0.0, 2.5 * 0.03])
     truth = _look_at(np.array(eye), center)
     gray = _render_floor_board(truth, K, board)
-    c2w, rms, sigma = ground_pose(gray, board, K, np.zeros(5))
+    c2w, rms, _ = ground_pose(gray, board, K, np.zeros(5))
     assert rms < 0.2
     cos = (np.trace(c2w[:3, :3].T @ truth[:3, :3]) - 1) / 2
     assert math.degrees(math.acos(min(1.0, cos))) < 0.2
