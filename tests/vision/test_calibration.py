@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from rheo.vision.calibration import Board, CalibrationError, calibrate_intrinsics, ground_pose
+from rheo.vision.cameras import look_at
 
 OPENCV_LEFT = Path(__file__).resolve().parents[3] / "shared" / "data" / "calibration" / "opencv_left"
 BOARD = Board(columns=9, rows=6, square=0.025)
@@ -41,18 +42,6 @@ def test_images_without_a_board_are_named_and_too_few_is_an_error(tmp_path, capl
         calibrate_intrinsics([unreadable], BOARD)
 
 
-def _look_at(eye, target) -> np.ndarray:
-    """OpenCV camera (x right, y down, z forward) at ``eye`` looking at ``target``, world y up."""
-    forward = (target - eye) / np.linalg.norm(target - eye)
-    right = np.cross(forward, [0.0, 1.0, 0.0])
-    right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
-    c2w = np.eye(4)
-    c2w[:3, :3] = np.stack([right, down, forward], axis=1)
-    c2w[:3, 3] = eye
-    return c2w
-
-
 def _render_floor_board(c2w: np.ndarray, K: np.ndarray, board: Board, size=(640, 480)) -> np.ndarray:
     """The board lying on the floor (its first inner corner at the world origin, columns along x, rows along z)."""
     px = 60  # texture pixels per square
@@ -75,7 +64,7 @@ def test_ground_board_gives_the_camera_pose_in_the_world_frame(eye):
     K = np.array([[800.0, 0, 320], [0, 800.0, 240], [0, 0, 1]])
     board = Board(9, 6, 0.03)
     center = np.array([4 * 0.03, 0.0, 2.5 * 0.03])
-    truth = _look_at(np.array(eye), center)
+    truth = look_at(np.array(eye), center)
     gray = _render_floor_board(truth, K, board)
     c2w, rms, _ = ground_pose(gray, board, K, np.zeros(5))
     assert rms < 0.2
