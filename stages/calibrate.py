@@ -2,11 +2,18 @@
 board lying on the floor; writes cameras.json (world frame: y up, floor at y = 0) and a figure of the frusta."""
 
 import glob
+from pathlib import Path
+
+import cv2
+import numpy as np
 
 from rheo.io import write_json_atomic
 from rheo.report.figures import camera_frusta, save_figure
 from rheo.stage import setup_logging
 from rheo.vision.calibration import Board, calibrate_intrinsics, camera_record, ground_pose, read_gray
+from rheo.vision.cameras import Camera
+from rheo.vision.matting import iou
+from rheo.vision.silhouette import refine_pose, silhouette_mask
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
@@ -24,6 +31,21 @@ for name, cam in cfg["cameras"].items():
              intr.rms_px, len(intr.per_view_rms_px), len(intr.skipped), pose_rms, sigma["rotation_deg"],
              sigma["center_m"], c2w[:3, 3].round(4).tolist())
     cameras[name] = camera_record(intr, c2w, pose_rms, sigma)
+    if cfg["silhouette_refinement"]:
+        # the proxy's silhouette against the material's mask in this camera's first frame
+        proxy = np.load(next(p for p in smk.input if p.endswith("particles.npz")))
+        matte_dir = next(Path(p) for p in smk.input if p.endswith("matte"))
+        mask = cv2.imread(str(matte_dir / name / "masks" / "000.png"), cv2.IMREAD_GRAYSCALE) > 127
+        camera = Camera(intr.width, intr.height, intr.K, intr.dist, c2w)
+        points, spacing = proxy["positions"], float(proxy["spacing"])
+        before = iou(silhouette_mask(camera, points, spacing), mask)
+        refined, info = refine_pose(camera, points, spacing, mask)
+        camera.c2w = refined
+        after = iou(silhouette_mask(camera, points, spacing), mask)
+        log.info("camera %s: silhouette refinement moved the pose by %.4f m, IoU %.3f -> %.3f", name,
+                 float(np.linalg.norm(refined[:3, 3] - c2w[:3, 3])), before, after)
+        cameras[name].update(c2w=refined.tolist(), silhouette_iou_before=before, silhouette_iou_after=after,
+                             silhouette_fit=info)
 write_json_atomic(smk.output.cameras, {"world": "y up, floor at y = 0, metres; camera axes OpenCV",
                                        "board": cfg["board"], "cameras": cameras})
 corners = board.object_points()

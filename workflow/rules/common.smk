@@ -64,13 +64,17 @@ def calibration_config(name):
     cameras = {f"cam{c:02d}": {"images": f"{rec}/cam{c:02d}/checkerboard/*.png",
                                "ground_image": f"{rec}/cam{c:02d}/ground_board.png", "ground_origin": [x, 0.0, z]}
                for c in range(exp["cameras"]["count"])}
-    return {"board": lab["board"], "fix_aspect_ratio": True, "min_views": 3, "cameras": cameras}
+    return {"board": lab["board"], "fix_aspect_ratio": True, "min_views": 3, "silhouette_refinement": False,
+            "cameras": cameras}
 
 
 def calibration_inputs(name):
     if experiment(name)["kind"] == "virtual":
         return [f"results/{name}/recordings"]
-    return calibration_images(name)
+    files = calibration_images(name)
+    if experiment(name)["calibration"]["silhouette_refinement"]:
+        files += [f"results/{name}/matte", f"results/{name}/proxy/particles.npz"]
+    return files
 
 
 def virtual_experiment(name):
