@@ -33,9 +33,8 @@ for name, cam in cfg["cameras"].items():
     cameras[name] = camera_record(intr, c2w, pose_rms, sigma)
     if cfg["silhouette_refinement"]:
         # the proxy's silhouette against the material's mask in this camera's first frame
-        proxy = np.load(next(p for p in smk.input if p.endswith("particles.npz")))
-        matte_dir = next(Path(p) for p in smk.input if p.endswith("matte"))
-        mask = cv2.imread(str(matte_dir / name / "masks" / "000.png"), cv2.IMREAD_GRAYSCALE) > 127
+        proxy = np.load(smk.input.proxy)
+        mask = cv2.imread(str(Path(smk.input.matte) / name / "masks" / "000.png"), cv2.IMREAD_GRAYSCALE) > 127
         camera = Camera(intr.width, intr.height, intr.K, intr.dist, c2w)
         points, spacing = proxy["positions"], float(proxy["spacing"])
         before = iou(silhouette_mask(camera, points, spacing), mask)

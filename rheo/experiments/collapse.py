@@ -1,15 +1,12 @@
 """Column collapse of the thesis (Tables 4.1 and 4.2): a cylinder of Bingham material on a sticky floor.
 
-The thesis gives (sigma_y, eta) in PAC-NeRF's convention: yield when |s| > sqrt(2/3) sigma_y, and the viscoplastic
-return |s_new| = |s| - delta / (1 + eta / (2 mu dt)). In rheo's shear convention (yield when |s|/sqrt(2) > tau_y, and
-|s_new| = |s| - delta / (1 + K / (mu dt))) the same law is tau_y = sigma_y / sqrt(3) and K = eta / 2.
+The thesis gives (sigma_y, eta) in PAC-NeRF's convention (see ``HerschelBulkley.from_pacnerf``).
 The height is the top of the material above the floor (highest particle plus half a particle spacing). The floor is
 wide enough (a 1.5 m box by default) that the low-yield piles never reach the domain walls.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import torch
@@ -29,10 +26,6 @@ class CollapseSetup:
     duration: float = 1.0
     frames: int = 24
 
-
-def thesis_material(sigma_y: float, eta: float, mu: float, lam: float, density: float) -> HerschelBulkley:
-    """The thesis' Bingham parameters (PAC-NeRF convention) as a Herschel-Bulkley material in rheo's convention."""
-    return HerschelBulkley(tau_y=sigma_y / math.sqrt(3.0), K=eta / 2.0, n=1.0, mu=mu, lam=lam, density=density)
 
 
 def simulate_collapse(material: HerschelBulkley, setup: CollapseSetup, progress: bool = False) -> dict:

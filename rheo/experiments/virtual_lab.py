@@ -7,9 +7,6 @@ board lying on the floor: the world frame) and, in the lab only, ``masks/NNN.png
 
 from __future__ import annotations
 
-import math
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,6 +17,7 @@ import torch
 from tqdm.auto import tqdm
 
 from rheo.geometry.proxy import from_config, voxelize
+from rheo.io import write_atomic_dir
 from rheo.physics import Floor, HerschelBulkley, Simulator, kernels
 from rheo.render.lab import FloorBoard, Scene, board_texture, render
 from rheo.vision.cameras import Camera, hemisphere
@@ -40,7 +38,7 @@ def material(cfg: dict) -> HerschelBulkley:
     """An experiment's material section as a rheo material (PAC-NeRF's sigma_y, eta converted)."""
     common = {"mu": cfg["mu"], "lam": cfg["lam"], "density": cfg.get("density", 1000.0)}
     if cfg["convention"] == "pacnerf":
-        return HerschelBulkley(tau_y=cfg["sigma_y"] / math.sqrt(3.0), K=cfg["eta"] / 2.0, n=1.0, **common)
+        return HerschelBulkley.from_pacnerf(cfg["sigma_y"], cfg["eta"], **common)
     return HerschelBulkley(tau_y=cfg["tau_y"], K=cfg["K"], n=cfg.get("n", 1.0), **common)
 
 
@@ -116,9 +114,8 @@ def render_board_view(camera: Camera, board: LabBoard, pose: np.ndarray, rng: np
     spec = FloorBoard(board.columns, board.rows, board.square)
     color, inside = board_texture(local[..., 0], local[..., 1], spec)
     image = np.where((inside & (t > 0))[..., None], color, 0.6)
-    image = _downsample((np.clip(image, 0, 1) * 255).astype(np.float32), camera) / 255.0
-    image = image + rng.normal(0.0, noise, image.shape)
-    return (np.clip(image, 0, 1) * 255 + 0.5).astype(np.uint8)
+    image = _downsample((np.clip(image, 0, 1) * 255).astype(np.float32), camera)
+    return _uint8(image + rng.normal(0.0, 255 * noise, image.shape))
 
 
 def _write_png(path: Path, image: np.ndarray) -> None:
@@ -126,44 +123,43 @@ def _write_png(path: Path, image: np.ndarray) -> None:
     cv2.imwrite(str(path), image[..., ::-1] if image.ndim == 3 else image)
 
 
+def _lab_view(camera: Camera, points: np.ndarray | None = None, spacing: float | None = None,
+              board: FloorBoard | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A noise-free view rendered at twice the resolution and averaged down: image (float, 0-255) and true mask."""
+    image, mask = render(_supersampled(camera, 2), points, spacing, board=board)
+    return _downsample(image.astype(np.float32), camera), _downsample(mask.astype(np.float32), camera) >= 0.5
+
+
+def _uint8(image: np.ndarray) -> np.ndarray:
+    return (np.clip(image, 0, 255) + 0.5).astype(np.uint8)
+
+
 def write_recordings(out_dir: str | Path, exp: dict, truth: dict, board: LabBoard = LabBoard(), seed: int = 0,
                      progress: bool = True) -> dict:
-    """Render every camera's frames, masks, clean plate and calibration images into ``out_dir`` (written to a
-    temporary folder first, then moved into place). Returns the truth record for truth.json."""
-    out_dir = Path(out_dir)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+    """Render every camera's frames, masks, clean plate and calibration images into ``out_dir`` (atomically: a
+    temporary folder moved into place). Returns the truth record for truth.json."""
     rng = np.random.default_rng(seed)
     cams = cameras(exp)
     fps = (len(truth["times"]) - 1) / float(truth["times"][-1])
     floor_board = FloorBoard(board.columns, board.rows, board.square, board.ground_origin)
-    try:
+
+    def write(tmp: Path) -> None:
         for c, cam in enumerate(tqdm(cams, desc="render cameras", disable=not progress)):
             cam_dir = tmp / f"cam{c:02d}"
-            fine = _supersampled(cam, 2)
             frames = []
             for f, points in enumerate(truth["positions"]):
-                image, mask = render(fine, points, truth["spacing"], rng=None)
-                image = _downsample(image.astype(np.float32), cam)
-                image = np.clip(image + rng.normal(0.0, 255 * Scene.noise, image.shape), 0, 255)
-                image = (image + 0.5).astype(np.uint8)
-                mask = _downsample(mask.astype(np.float32), cam) >= 0.5
+                image, mask = _lab_view(cam, points, truth["spacing"])
+                image = _uint8(image + rng.normal(0.0, 255 * Scene.noise, image.shape))
                 _write_png(cam_dir / "frames" / f"{f:03d}.png", image)
                 _write_png(cam_dir / "masks" / f"{f:03d}.png", mask.astype(np.uint8) * 255)
                 frames.append(image)
             imageio.mimwrite(cam_dir / "video.mp4", frames, fps=max(fps, 1.0), macro_block_size=1, quality=9)
-            plate, _ = render(fine, None, None, rng=None)
-            _write_png(cam_dir / "clean_plate.png", (_downsample(plate.astype(np.float32), cam) + 0.5).astype(np.uint8))
+            _write_png(cam_dir / "clean_plate.png", _uint8(_lab_view(cam)[0]))
             for i, pose in enumerate(board_poses(cam, board, rng)):
                 _write_png(cam_dir / "checkerboard" / f"{i:02d}.png", render_board_view(cam, board, pose, rng))
-            ground, _ = render(fine, None, None, board=floor_board, rng=None)
-            _write_png(cam_dir / "ground_board.png", (_downsample(ground.astype(np.float32), cam) + 0.5)
-                       .astype(np.uint8))
-        if out_dir.exists():
-            shutil.rmtree(out_dir)
-        tmp.rename(out_dir)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+            _write_png(cam_dir / "ground_board.png", _uint8(_lab_view(cam, board=floor_board)[0]))
+
+    write_atomic_dir(out_dir, write)
     return {"cameras": {f"cam{c:02d}": cam.record() for c, cam in enumerate(cams)},
             "board": {"columns": board.columns, "rows": board.rows, "square": board.square,
                       "ground_origin": [board.ground_origin[0], 0.0, board.ground_origin[1]]},

@@ -25,7 +25,7 @@ from rheo.geometry.sampling import cylinder
 from rheo.io import write_json_atomic
 from rheo.physics import Floor, HerschelBulkley, Simulator
 
-MATERIAL = HerschelBulkley(tau_y=1000.0 / 3**0.5, K=5.0, n=1.0, mu=1.0e4, lam=1.0e4)
+MATERIAL = HerschelBulkley.from_pacnerf(sigma_y=1000.0, eta=10.0, mu=1.0e4, lam=1.0e4)
 DT = 1e-3
 
 

@@ -96,6 +96,13 @@ class HerschelBulkley(Material):
     def bingham(cls, tau_y: float, eta: float, mu: float, lam: float, density: float = 1000.0) -> HerschelBulkley:
         return cls(tau_y=tau_y, K=eta, n=1.0, mu=mu, lam=lam, density=density)
 
+    @classmethod
+    def from_pacnerf(cls, sigma_y: float, eta: float, mu: float, lam: float,
+                     density: float = 1000.0) -> HerschelBulkley:
+        """PAC-NeRF's (and the thesis') Bingham parameters: its code yields at |s| > sqrt(2/3) sigma_y and relaxes
+        |s| by delta / (1 + eta / (2 mu dt)), the same law as tau_y = sigma_y / sqrt(3), K = eta / 2 here."""
+        return cls.bingham(tau_y=sigma_y / math.sqrt(3.0), eta=eta / 2.0, mu=mu, lam=lam, density=density)
+
     def kernel_vector(self, values: torch.Tensor) -> torch.Tensor:
         rho, tau_y, K, n, mu, lam = values.unbind()
         return _layout(density=rho, tau_y=tau_y, K=K, n=n, mu=mu, lam=lam)
@@ -190,8 +197,8 @@ def make_material(name: str, **params: float) -> Material:
         if unknown:
             raise MaterialError(f"unknown parameter(s) {sorted(unknown)} for material 'bingham'; "
                                 f"allowed: {sorted(allowed)}")
-        eta = params.pop("eta", 10.0)
-        return HerschelBulkley(K=eta, n=1.0, **params)
+        defaults = {"tau_y": HerschelBulkley.tau_y, "eta": 10.0, "mu": HerschelBulkley.mu, "lam": HerschelBulkley.lam}
+        return HerschelBulkley.bingham(**{**defaults, **params})
     if name not in MATERIALS:
         raise MaterialError(f"unknown material {name!r}; known materials: {sorted([*MATERIALS, 'bingham'])}")
     cls = MATERIALS[name]

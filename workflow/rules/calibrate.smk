@@ -3,7 +3,7 @@
 
 rule calibrate:
     input:
-        lambda w: calibration_inputs(w.experiment),
+        unpack(lambda w: calibration_inputs(w.experiment)),
     output:
         cameras="results/{experiment}/calibration/cameras.json",
         figure="results/{experiment}/calibration/cameras.png",

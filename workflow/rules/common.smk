@@ -69,12 +69,14 @@ def calibration_config(name):
 
 
 def calibration_inputs(name):
+    """Named inputs of calibrate: the images (or the lab's recordings), and the matte and proxy for a silhouette
+    refinement."""
     if experiment(name)["kind"] == "virtual":
-        return [f"results/{name}/recordings"]
-    files = calibration_images(name)
+        return {"images": [f"results/{name}/recordings"]}
+    inputs = {"images": calibration_images(name)}
     if experiment(name)["calibration"]["silhouette_refinement"]:
-        files += [f"results/{name}/matte", f"results/{name}/proxy/particles.npz"]
-    return files
+        inputs.update(matte=f"results/{name}/matte", proxy=f"results/{name}/proxy/particles.npz")
+    return inputs
 
 
 def virtual_experiment(name):
