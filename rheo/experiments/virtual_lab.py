@@ -30,7 +30,7 @@ class LabBoard:
     columns: int = 9
     rows: int = 6
     square: float = 0.06
-    views: int = 30  # checkerboard images per camera for intrinsics
+    views: int = 40  # checkerboard images per camera for intrinsics
     ground_origin: tuple[float, float] = (0.25, 0.35)  # first inner corner on the floor (x, z)
 
 
@@ -86,19 +86,26 @@ def _downsample(image: np.ndarray, camera: Camera) -> np.ndarray:
 
 
 def board_poses(camera: Camera, board: LabBoard, rng: np.random.Generator) -> list[np.ndarray]:
-    """Board-to-world transforms of ``board.views`` tilted boards filling about half of the camera's view."""
+    """Board-to-world transforms of ``board.views`` tilted boards filling about two thirds of the camera's view,
+    shifted towards the image edges (a firm principal point) but always whole in the image (a board cut by the image
+    border is not detected)."""
     width = (board.columns + 1) * board.square
     distance = width / (0.65 * camera.width / camera.K[0, 0])
     center = np.array([(board.columns - 1) / 2, (board.rows - 1) / 2, 0.0]) * board.square
+    outline = np.array([[-1, -1, 0], [board.columns, -1, 0], [-1, board.rows, 0], [board.columns, board.rows, 0]],
+                       float) * board.square
     poses = []
-    for _ in range(board.views):
+    while len(poses) < board.views:
         tilt = np.radians(rng.uniform(-40, 40, size=2))
         R_board, _ = cv2.Rodrigues(np.array([tilt[0], tilt[1], rng.uniform(-0.3, 0.3)]))
-        shift = rng.uniform(-0.22, 0.22, size=2) * distance  # boards reach the edges: a firm principal point
+        shift = rng.uniform(-0.22, 0.22, size=2) * distance
         cam_from_board = np.eye(4)
         cam_from_board[:3, :3] = R_board
         cam_from_board[:3, 3] = np.array([shift[0], shift[1], distance]) - R_board @ center
-        poses.append(camera.c2w @ cam_from_board)
+        pose = camera.c2w @ cam_from_board
+        uv, _ = camera.project(outline @ pose[:3, :3].T + pose[:3, 3])
+        if uv.min() >= 2 and uv[:, 0].max() <= camera.width - 3 and uv[:, 1].max() <= camera.height - 3:
+            poses.append(pose)
     return poses
 
 

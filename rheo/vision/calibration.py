@@ -13,6 +13,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
 
 logger = logging.getLogger(__name__)
 
@@ -142,13 +143,23 @@ def calibrate_intrinsics(images: Sequence[str | Path], board: Board, *, fix_aspe
                       per_view_rms_px=per_view, skipped=skipped)
 
 
-def ground_pose(gray: np.ndarray, board: Board, K: np.ndarray, dist: np.ndarray, *,
-                origin: Sequence[float] = (0.0, 0.0, 0.0), source: str = "image") -> tuple[np.ndarray, float, dict]:
-    """Camera-to-world transform (4x4) from a photo of the board lying on the floor, the reprojection RMS (px), and
-    the pose's 1-sigma uncertainty (rotation in degrees, camera centre in m) from the Levenberg-Marquardt fit.
+@dataclass
+class GroundView:
+    """One camera's view of the board lying on the floor: its corners (N, 2, canonical order), the camera's
+    intrinsics, and the board-to-camera pose (Rodrigues ``rvec``, ``tvec``)."""
 
-    The world frame: the board's first corner at ``origin`` (x, z on the floor), y up out of the floor.
-    """
+    corners: np.ndarray
+    K: np.ndarray
+    dist: np.ndarray
+    rvec: np.ndarray
+    tvec: np.ndarray
+    source: str = "image"
+
+
+def locate_ground_board(gray: np.ndarray, board: Board, K: np.ndarray, dist: np.ndarray,
+                        source: str = "image") -> GroundView:
+    """The board lying on the floor in one camera's image, and that camera's pose relative to it (PnP, then
+    Levenberg-Marquardt)."""
     corners = find_corners(gray, board)
     if corners is None:
         raise CalibrationError(f"{source}: no {board.columns}x{board.rows} board found for the world frame")
@@ -158,36 +169,118 @@ def ground_pose(gray: np.ndarray, board: Board, K: np.ndarray, dist: np.ndarray,
     if not ok:
         raise CalibrationError(f"{source}: the board pose could not be solved")
     rvec, tvec = cv2.solvePnPRefineLM(obj, corners, K, dist, rvec, tvec)
-    projected, jacobian = cv2.projectPoints(obj, rvec, tvec, K, dist)
-    residual = (projected - corners).reshape(-1)
-    rms = float(np.sqrt(np.mean(np.sum((projected - corners) ** 2, axis=-1))))
-    J = jacobian[:, :6]  # d(pixels) / d(rvec, tvec)
-    sigma2 = float(residual @ residual) / max(len(residual) - 6, 1)
-    covariance = sigma2 * np.linalg.pinv(J.T @ J)
-    R, _ = cv2.Rodrigues(rvec)
+    return GroundView(corners.reshape(-1, 2).astype(float), np.asarray(K, float), np.asarray(dist, float).ravel(),
+                      rvec.ravel(), tvec.ravel(), source)
+
+
+def world_pose(view: GroundView, origin: Sequence[float] = (0.0, 0.0, 0.0)) -> np.ndarray:
+    """Camera-to-world transform (4x4) of a ground view. The world frame: the board's first corner at ``origin``
+    (x, z on the floor), y up out of the floor."""
+    R, _ = cv2.Rodrigues(view.rvec)
+    center_board = -R.T @ view.tvec
     world_from_board = _WORLD_FROM_BOARD
-    center_board = (-R.T @ tvec).ravel()
     if (world_from_board @ center_board)[1] < 0:  # the camera must be above the floor: flip the board's y and z
         world_from_board = world_from_board @ np.diag([1.0, -1.0, -1.0])
     c2w = np.eye(4)
     c2w[:3, :3] = world_from_board @ R.T
     c2w[:3, 3] = world_from_board @ center_board + np.asarray(origin, dtype=float)
+    return c2w
+
+
+def reprojection_rms(view: GroundView, points: np.ndarray) -> float:
+    """RMS distance (px) between the view's corners and ``points`` (board frame) projected into it."""
+    projected, _ = cv2.projectPoints(np.asarray(points, float), view.rvec, view.tvec, view.K, view.dist)
+    return float(np.sqrt(np.mean(np.sum((projected.reshape(-1, 2) - view.corners) ** 2, axis=-1))))
+
+
+def pose_sigma(view: GroundView, covariance: np.ndarray) -> dict:
+    """1-sigma rotation (degrees) and camera-centre (m) uncertainty from the 6x6 covariance of (rvec, tvec)."""
 
     def center(params: np.ndarray) -> np.ndarray:
-        Rp, _ = cv2.Rodrigues(params[:3])
-        return -Rp.T @ params[3:]
+        R, _ = cv2.Rodrigues(params[:3])
+        return -R.T @ params[3:]
 
-    params = np.r_[rvec.ravel(), tvec.ravel()]
+    params = np.r_[view.rvec, view.tvec]
     dC = np.stack([(center(params + h) - center(params - h)) / 2e-7 for h in np.eye(6) * 1e-7], axis=1)
-    uncertainty = {"rotation_deg": float(np.degrees(np.sqrt(np.trace(covariance[:3, :3])))),
-                   "center_m": float(np.sqrt(np.trace(dC @ covariance @ dC.T)))}
-    return c2w, rms, uncertainty
+    return {"rotation_deg": float(np.degrees(np.sqrt(np.trace(covariance[:3, :3])))),
+            "center_m": float(np.sqrt(np.trace(dC @ covariance @ dC.T)))}
 
 
-def camera_record(intr: Intrinsics, c2w: np.ndarray, pose_rms_px: float, pose_sigma: dict | None = None) -> dict:
+@dataclass
+class GroundAdjustment:
+    """Cameras adjusted together on one ground board: their views (updated poses), each pose's 6x6 covariance of
+    (rvec, tvec), the board's adjusted corners (board frame), each view's reprojection RMS (px), and the pixel noise
+    (px, 1 sigma per coordinate) the adjustment assumed."""
+
+    views: list[GroundView]
+    covariances: list[np.ndarray]
+    board_points: np.ndarray
+    rms_px: list[float]
+    pixel_sigma: float
+
+
+def adjust_ground_views(views: Sequence[GroundView], board: Board, tolerance: float = 5e-4) -> GroundAdjustment:
+    """Bundle adjustment of the cameras that see the same board lying on the floor.
+
+    Unknowns: every camera's pose and every corner of the board (a printed board lying on a floor is neither exactly
+    flat nor exactly to scale); residuals: the corners' reprojection errors in all views, whitened by the pixel noise
+    of the single-camera fits, and each corner's offset from the nominal board, whitened by ``tolerance`` (m,
+    1 sigma), which also fixes the world frame. Covariances come from the Gauss-Newton normal matrix at the optimum,
+    so each pose's uncertainty includes what the board's own uncertainty contributes.
+    """
+    nominal = board.object_points().astype(float)
+    n, m = len(nominal), len(views)
+    squared = sum(reprojection_rms(view, nominal) ** 2 * n for view in views)
+    pixel_sigma = max(float(np.sqrt(squared / max(2 * n * m - 6 * m, 1))), 0.02)
+    corners = np.concatenate([view.corners.ravel() for view in views])
+    j = np.arange(n)[:, None, None]
+    point_rows = 2 * j + np.arange(2)[None, :, None]
+    point_cols = 6 * m + 3 * j + np.arange(3)[None, None, :]
+
+    def unpack(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return x[:6 * m].reshape(m, 6), x[6 * m:].reshape(n, 3)
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        poses, points = unpack(x)
+        projected = [cv2.projectPoints(points, p[:3], p[3:], v.K, v.dist)[0].ravel()
+                     for p, v in zip(poses, views, strict=True)]
+        return np.r_[(np.concatenate(projected) - corners) / pixel_sigma, ((points - nominal) / tolerance).ravel()]
+
+    def jacobian(x: np.ndarray) -> np.ndarray:
+        poses, points = unpack(x)
+        J = np.zeros((2 * n * m + 3 * n, 6 * m + 3 * n))
+        for i, (p, v) in enumerate(zip(poses, views, strict=True)):
+            _, d = cv2.projectPoints(points, p[:3], p[3:], v.K, v.dist)
+            R, _ = cv2.Rodrigues(p[:3])
+            J[2 * n * i:2 * n * (i + 1), 6 * i:6 * i + 6] = d[:, :6] / pixel_sigma
+            # a corner moves in the camera as the translation does, rotated: d(pixel)/d(point) = d(pixel)/d(t) R
+            J[2 * n * i + point_rows, point_cols] = d[:, 3:6].reshape(n, 2, 3) @ R / pixel_sigma
+        J[2 * n * m:, 6 * m:] = np.eye(3 * n) / tolerance
+        return J
+
+    x0 = np.r_[np.concatenate([np.r_[v.rvec, v.tvec] for v in views]), nominal.ravel()]
+    solution = least_squares(residuals, x0, jac=jacobian, method="lm", xtol=1e-12, ftol=1e-12)
+    covariance = np.linalg.pinv(solution.jac.T @ solution.jac)
+    poses, points = unpack(solution.x)
+    adjusted = [GroundView(v.corners, v.K, v.dist, p[:3].copy(), p[3:].copy(), v.source)
+                for p, v in zip(poses, views, strict=True)]
+    return GroundAdjustment(adjusted, [covariance[6 * i:6 * i + 6, 6 * i:6 * i + 6] for i in range(m)], points,
+                            [reprojection_rms(v, points) for v in adjusted], pixel_sigma)
+
+
+def ground_pose(gray: np.ndarray, board: Board, K: np.ndarray, dist: np.ndarray, *,
+                origin: Sequence[float] = (0.0, 0.0, 0.0), source: str = "image") -> tuple[np.ndarray, float, dict]:
+    """One camera's camera-to-world transform (4x4) from a photo of the board lying on the floor, the reprojection
+    RMS (px), and the pose's 1-sigma uncertainty (see ``pose_sigma``); ``world_pose`` gives the world frame."""
+    adjusted = adjust_ground_views([locate_ground_board(gray, board, K, dist, source)], board)
+    view = adjusted.views[0]
+    return world_pose(view, origin), adjusted.rms_px[0], pose_sigma(view, adjusted.covariances[0])
+
+
+def camera_record(intr: Intrinsics, c2w: np.ndarray, pose_rms_px: float, sigma: dict | None = None) -> dict:
     """One camera as written to cameras.json."""
     return {"width": intr.width, "height": intr.height, "K": intr.K.tolist(), "dist": intr.dist.tolist(),
-            "c2w": c2w.tolist(), "rms_px": intr.rms_px, "pose_rms_px": pose_rms_px, "pose_sigma": pose_sigma,
+            "c2w": c2w.tolist(), "rms_px": intr.rms_px, "pose_rms_px": pose_rms_px, "pose_sigma": sigma,
             "per_view_rms_px": intr.per_view_rms_px, "skipped_images": intr.skipped, "axes": "opencv"}
 
 

@@ -9,8 +9,19 @@ import cv2
 import numpy as np
 import pytest
 
-from rheo.vision.calibration import Board, CalibrationError, calibrate_intrinsics, ground_pose
-from rheo.vision.cameras import look_at
+from rheo.vision.calibration import (
+    _WORLD_FROM_BOARD,
+    Board,
+    CalibrationError,
+    GroundView,
+    adjust_ground_views,
+    calibrate_intrinsics,
+    ground_pose,
+    pose_sigma,
+    reprojection_rms,
+    world_pose,
+)
+from rheo.vision.cameras import hemisphere, look_at
 
 OPENCV_LEFT = Path(__file__).resolve().parents[3] / "shared" / "data" / "calibration" / "opencv_left"
 BOARD = Board(columns=9, rows=6, square=0.025)
@@ -73,3 +84,49 @@ def test_ground_board_gives_the_camera_pose_in_the_world_frame(eye):
     distance = np.linalg.norm(truth[:3, 3] - center)
     assert np.linalg.norm(c2w[:3, 3] - truth[:3, 3]) < 0.005 * distance
 
+
+
+def _ground_views(board: Board, cameras, true_points: np.ndarray, noise_px: float, rng) -> list[GroundView]:
+    """Noisy corners of ``true_points`` (board frame, board at the world origin) in every camera, and each camera's
+    single-view pose against the nominal board."""
+    nominal = board.object_points().astype(float)
+    views = []
+    for cam in cameras:
+        w2c = np.linalg.inv(cam.c2w)
+        rvec, _ = cv2.Rodrigues(w2c[:3, :3] @ _WORLD_FROM_BOARD)
+        uv, _ = cv2.projectPoints(true_points, rvec, w2c[:3, 3], cam.K, cam.dist)
+        uv = uv.reshape(-1, 2) + rng.normal(0.0, noise_px, uv.reshape(-1, 2).shape)
+        _, rvec, tvec = cv2.solvePnP(nominal, uv, cam.K, cam.dist)
+        views.append(GroundView(uv, cam.K, cam.dist, rvec.ravel(), tvec.ravel()))
+    return views
+
+
+def test_joint_adjustment_gives_calibrated_pose_uncertainties():
+    board = Board(9, 6, 0.08)
+    cameras = hemisphere(11, 2.0, [25.0, 45.0], [0.3, 0.1, 0.2], 400, 400, 40.0)
+    rng = np.random.default_rng(0)
+    z = []
+    for _ in range(20):
+        adjusted = adjust_ground_views(_ground_views(board, cameras, board.object_points(), 0.15, rng), board)
+        assert adjusted.pixel_sigma == pytest.approx(0.15, rel=0.25)
+        for view, covariance, cam in zip(adjusted.views, adjusted.covariances, cameras, strict=True):
+            error = np.linalg.norm(world_pose(view)[:3, 3] - cam.c2w[:3, 3])
+            z.append(error / pose_sigma(view, covariance)["center_m"])
+    # a 3-D error over its 1-sigma norm: about 1 on average when the covariances are right
+    assert 0.5 < np.sqrt(np.mean(np.square(z))) < 1.5
+
+
+def test_joint_adjustment_recovers_the_shape_of_a_board_that_is_not_flat():
+    board = Board(9, 6, 0.08)
+    cameras = hemisphere(11, 2.0, [25.0, 45.0], [0.3, 0.1, 0.2], 400, 400, 40.0)
+    nominal = board.object_points().astype(float)
+    radius = np.linalg.norm(nominal[:, :2] - nominal[:, :2].mean(axis=0), axis=1)
+    bulged = nominal - [0.0, 0.0, 1.0] * (0.005 * np.cos(0.5 * np.pi * radius / radius.max()))[:, None]  # 5 mm up
+    views = _ground_views(board, cameras, bulged, 0.15, np.random.default_rng(1))
+    adjusted = adjust_ground_views(views, board)
+    # shape only: the world frame is the nominal board's, so compare after the best rigid alignment
+    a, b = adjusted.board_points - adjusted.board_points.mean(axis=0), bulged - bulged.mean(axis=0)
+    u, _, vt = np.linalg.svd(a.T @ b)
+    assert np.abs(a @ (u @ vt) - b).max() < 0.0015
+    # the adjusted board explains the bulge: residuals at the noise level, below those against the nominal board
+    assert np.mean(adjusted.rms_px) < 0.8 * np.mean([reprojection_rms(view, nominal) for view in views])

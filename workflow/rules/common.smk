@@ -65,14 +65,14 @@ def calibration_config(name):
                                "ground_image": f"{rec}/cam{c:02d}/ground_board.png", "ground_origin": [x, 0.0, z]}
                for c in range(exp["cameras"]["count"])}
     return {"board": lab["board"], "fix_aspect_ratio": True, "min_views": 3, "silhouette_refinement": False,
-            "cameras": cameras}
+            "board_tolerance": 0.0005, "cameras": cameras}
 
 
 def calibration_inputs(name):
-    """Named inputs of calibrate: the images (or the lab's recordings), and the matte and proxy for a silhouette
-    refinement."""
+    """Named inputs of calibrate: the images (or the lab's recordings and their truth), and the matte and proxy for
+    a silhouette refinement."""
     if experiment(name)["kind"] == "virtual":
-        return {"images": [f"results/{name}/recordings"]}
+        return {"images": [f"results/{name}/recordings"], "truth": f"results/{name}/truth.json"}
     inputs = {"images": calibration_images(name)}
     if experiment(name)["calibration"]["silhouette_refinement"]:
         inputs.update(matte=f"results/{name}/matte", proxy=f"results/{name}/proxy/particles.npz")
