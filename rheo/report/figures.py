@@ -81,3 +81,16 @@ def mask_overlays(items: list[tuple[str, np.ndarray, np.ndarray]], columns: int 
         ax.imshow(shown)
         ax.set_title(title, fontsize=8)
     return fig
+
+
+def contact_sheet(rows: dict[str, list[tuple[str, np.ndarray]]]):
+    """A grid of images: one row per camera, (title, RGB image) per panel."""
+    columns = max(len(panels) for panels in rows.values())
+    fig, axes = plt.subplots(len(rows), columns, figsize=(3.0 * columns, 2.6 * len(rows)), squeeze=False)
+    for ax in axes.ravel():
+        ax.axis("off")
+    for row, (name, panels) in zip(axes, rows.items(), strict=True):
+        for ax, (title, image) in zip(row, panels, strict=False):
+            ax.imshow(image)
+            ax.set_title(f"{name}: {title}", fontsize=8)
+    return fig

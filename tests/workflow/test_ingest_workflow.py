@@ -26,6 +26,7 @@ def test_ingest_video_then_matte(workflow, tmp_path):
     rec = workflow.root / "results/clip/recordings"
     assert json.loads((rec / "recording.json").read_text())["phone"] == {"frames": 4, "fps": 12.0, "source": str(video)}
     assert len(list((rec / "phone/frames").glob("*.png"))) == 4 and (rec / "phone/clean_plate.png").is_file()
+    assert (workflow.root / "results/clip/ingest.png").stat().st_size > 5_000  # the contact sheet
     mask = imageio.imread(workflow.root / "results/clip/matte/phone/masks/000.png") > 127
     assert abs(mask.sum() - 20 * 15) < 60  # the blob of source frame 2
     cols = np.flatnonzero(mask.any(axis=0))

@@ -6,6 +6,7 @@ rule ingest:
         lambda w: recording_sources(w.experiment),
     output:
         recordings=directory("results/{experiment}/recordings"),
+        figure="results/{experiment}/ingest.png",
     wildcard_constraints:
         experiment=experiments_of_kind("real"),
     log:
