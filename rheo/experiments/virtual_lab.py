@@ -7,6 +7,8 @@ board lying on the floor: the world frame) and, in the lab only, ``masks/NNN.png
 
 from __future__ import annotations
 
+import json
+
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -165,6 +167,9 @@ def write_recordings(out_dir: str | Path, exp: dict, truth: dict, board: LabBoar
             for i, pose in enumerate(board_poses(cam, board, rng)):
                 _write_png(cam_dir / "checkerboard" / f"{i:02d}.png", render_board_view(cam, board, pose, rng))
             _write_png(cam_dir / "ground_board.png", _uint8(_lab_view(cam, board=floor_board)[0]))
+        summary = {f"cam{c:02d}": {"frames": len(truth["times"]), "fps": fps, "source": "virtual lab"}
+                   for c in range(len(cams))}
+        (tmp / "recording.json").write_text(json.dumps(summary, indent=2))
 
     write_atomic_dir(out_dir, write)
     return {"cameras": {f"cam{c:02d}": cam.record() for c, cam in enumerate(cams)},

@@ -1,0 +1,166 @@
+"""The particles a fit starts from.
+
+Several views: a static voxel radiance field (density, colour) fitted to every camera's first frame, coarse to fine,
+with the thesis' surface regulariser (eq. 3.8), started from the visual hull of the masks; particles then fill the
+voxels the field makes opaque and take its density and colour. One view: the proxy's geometry, coloured from the view.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+from tqdm.auto import tqdm
+
+from rheo.fit.observations import Observations, sample_rays
+from rheo.render.field import VoxelGrid, march
+
+logger = logging.getLogger(__name__)
+
+WHITE = torch.ones(3)
+
+
+@dataclass
+class Seed:
+    """Particles on a lattice of ``spacing``: positions (N, 3), densities (N,) in 1/m, colours (N, 3) in [0, 1]."""
+
+    positions: np.ndarray
+    density: np.ndarray
+    colour: np.ndarray
+    spacing: float
+
+    @property
+    def particle_volume(self) -> float:
+        return self.spacing**3
+
+    @property
+    def volume(self) -> float:
+        return len(self.positions) * self.particle_volume
+
+
+def _inside_views(obs: Observations, points: np.ndarray, frame: int) -> np.ndarray:
+    """For each point, whether every view that sees it (in front of the camera, inside the image) sees it inside
+    the mask; points no view sees are outside."""
+    inside = np.ones(len(points), bool)
+    seen = np.zeros(len(points), bool)
+    for view in obs.views:
+        cam = view.camera
+        uv, depth = cam.project(points)
+        pixel = np.round(uv).astype(int)
+        visible = (depth > 0) & (pixel[:, 0] >= 0) & (pixel[:, 0] < cam.width) & (pixel[:, 1] >= 0) & (
+            pixel[:, 1] < cam.height)
+        mask = view.masks[frame].reshape(cam.height, cam.width)
+        hit = np.zeros(len(points), bool)
+        hit[visible] = mask[pixel[visible, 1], pixel[visible, 0]]
+        inside &= hit | ~visible
+        seen |= visible
+    return inside & seen
+
+
+def visual_hull(obs: Observations, grid: VoxelGrid, frame: int = 0) -> np.ndarray:
+    """Nodes of ``grid`` (above the floor) inside the masks of every view that sees them: (nx, ny, nz) bool."""
+    centres = grid.centres().reshape(-1, 3)
+    return (_inside_views(obs, centres, frame) & (centres[:, 1] >= 0)).reshape(grid.shape)
+
+
+def hull_grid(obs: Observations, domain_origin, domain_size: float, spacing: float, frame: int = 0) -> VoxelGrid:
+    """The grid of ``spacing`` around the visual hull (computed on a grid twice as coarse over the domain)."""
+    coarse = VoxelGrid(tuple(domain_origin), 2 * spacing, (int(np.ceil(domain_size / (2 * spacing))) + 1,) * 3)
+    hull = visual_hull(obs, coarse, frame)
+    if not hull.any():
+        raise ValueError("the masks of the first frame have no common region inside the simulation domain: check "
+                         "the cameras and masks")
+    return VoxelGrid.around(coarse.centres()[hull], spacing, pad=3)
+
+
+def _resample(field: torch.Tensor, source: VoxelGrid, target: VoxelGrid) -> torch.Tensor:
+    """A (C, nx, ny, nz) field on ``source`` interpolated at the nodes of ``target``."""
+    lo, hi = source.bounds()
+    centres = torch.as_tensor(target.centres(), dtype=field.dtype)
+    normalized = 2.0 * (centres - torch.as_tensor(lo, dtype=field.dtype)) / torch.as_tensor(hi - lo,
+                                                                                             dtype=field.dtype) - 1
+    return F.grid_sample(field[None], normalized.flip(-1)[None], mode="bilinear", padding_mode="border",
+                         align_corners=True)[0]
+
+
+def fit_radiance_field(obs: Observations, grid: VoxelGrid, occupancy: np.ndarray, *, levels: int = 3,
+                       iterations: int = 150, rays_per_view: int = 1024, surface_weight: float = 0.01,
+                       learning_rate: float = 0.1, seed: int = 0,
+                       progress: bool = True) -> tuple[torch.Tensor, torch.Tensor, list[float]]:
+    """Density (nx, ny, nz) and colour (3, nx, ny, nz) on ``grid`` fitted to the first frame of every view, from a
+    grid 2**(levels-1) times coarser up to ``grid``; starts opaque inside ``occupancy`` (the visual hull). Returns
+    the fields and the loss per iteration."""
+    rng = np.random.default_rng(seed)
+    opaque = 4.0 / grid.spacing  # about 98 % opacity per voxel
+    current = grid
+    raw = None
+    losses = []
+    for level in reversed(range(levels)):
+        factor = 2**level
+        shape = tuple(int(np.ceil((n - 1) / factor)) + 1 for n in grid.shape)
+        level_grid = VoxelGrid(grid.origin, grid.spacing * factor, shape)
+        if raw is None:
+            hull = torch.as_tensor(occupancy[None].astype(np.float32))
+            start = _resample(hull, grid, level_grid)[0]
+            raw = torch.cat([torch.log(torch.expm1(torch.full_like(start, 1.0))) + 6.0 * (start - 0.5)[None],
+                             torch.zeros((3, *shape))], dim=0)
+        else:
+            raw = _resample(raw.detach(), current, level_grid)
+        current = level_grid
+        raw.requires_grad_(True)
+        optimizer = torch.optim.Adam([raw], lr=learning_rate)
+        for _ in tqdm(range(iterations), desc=f"radiance field {shape}", disable=not progress):
+            batch = sample_rays(obs, 0, rays_per_view, rng)
+            density = F.softplus(raw[0]) * (opaque / 1.0)
+            rgb, _ = march(density, torch.sigmoid(raw[1:]), level_grid, batch.origins, batch.dirs, WHITE)
+            alpha = 1.0 - torch.exp(-density * level_grid.spacing)
+            surface = torch.clamp(alpha, 1e-4, 1e-1).mean()  # eq. 3.8, per voxel
+            loss = F.mse_loss(rgb, batch.colours) + surface_weight * surface
+            optimizer.zero_grad()
+            loss.backward()
+            optimizer.step()
+            losses.append(float(loss))
+    with torch.no_grad():
+        return F.softplus(raw[0]) * opaque, torch.sigmoid(raw[1:]), losses
+
+
+def field_particles(density: torch.Tensor, colour: torch.Tensor, grid: VoxelGrid, threshold: float = 0.5) -> Seed:
+    """One particle at every node whose voxel the field makes more opaque than ``threshold`` (above the floor)."""
+    alpha = 1.0 - torch.exp(-density * grid.spacing)
+    centres = grid.centres()
+    keep = (alpha.numpy() > threshold) & (centres[..., 1] > 0)
+    return Seed(centres[keep], density.numpy()[keep], colour.numpy().transpose(1, 2, 3, 0)[keep], grid.spacing)
+
+
+def proxy_particles(occupancy: np.ndarray, origin: np.ndarray, proxy_spacing: float, spacing: float) -> np.ndarray:
+    """The proxy's occupancy (voxel ``(i, j, k)`` spans ``origin + proxy_spacing * [i, i + 1)``) sampled at the
+    centres of a lattice of ``spacing``."""
+    extent = np.asarray(occupancy.shape) * proxy_spacing
+    axes = [origin[a] + spacing / 2 + spacing * np.arange(int(np.floor(extent[a] / spacing))) for a in range(3)]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    index = np.floor((points - origin) / proxy_spacing).astype(int)
+    index = np.clip(index, 0, np.asarray(occupancy.shape) - 1)
+    return points[occupancy[index[:, 0], index[:, 1], index[:, 2]]]
+
+
+def colour_from_view(obs: Observations, points: np.ndarray, frame: int = 0) -> np.ndarray:
+    """Colours (N, 3) of ``points`` from the first view's matted frame: the pixel each projects to where that is on
+    the material, the material's mean colour elsewhere."""
+    view = obs.views[0]
+    cam = view.camera
+    image = view.images[frame].reshape(cam.height, cam.width, 3) / 255.0
+    mask = view.masks[frame].reshape(cam.height, cam.width)
+    if not mask.any():
+        raise ValueError(f"camera {view.name}: the first frame's mask is empty")
+    uv, depth = cam.project(points)
+    pixel = np.round(uv).astype(int)
+    inside = (depth > 0) & (pixel[:, 0] >= 0) & (pixel[:, 0] < cam.width) & (pixel[:, 1] >= 0) & (
+        pixel[:, 1] < cam.height)
+    on_material = np.zeros(len(points), bool)
+    on_material[inside] = mask[pixel[inside, 1], pixel[inside, 0]]
+    colours = np.broadcast_to(image[mask].mean(axis=0), (len(points), 3)).copy()
+    colours[on_material] = image[pixel[on_material, 1], pixel[on_material, 0]]
+    return colours
