@@ -2,7 +2,8 @@
 checkerboard images) with the lab renderer; truth.json records the parameters, cameras and board."""
 
 
-from rheo.experiments.virtual_lab import LabBoard, material, simulate_truth, write_recordings
+from rheo.experiments.scene import material
+from rheo.experiments.virtual_lab import LabBoard, simulate_truth, write_recordings
 from rheo.io import write_json_atomic
 from rheo.report.figures import camera_frusta, save_figure
 from rheo.stage import setup_logging

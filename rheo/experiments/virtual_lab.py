@@ -8,7 +8,6 @@ board lying on the floor: the world frame) and, in the lab only, ``masks/NNN.png
 from __future__ import annotations
 
 import json
-
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,9 +17,9 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
+from rheo.experiments.scene import simulator
 from rheo.geometry.proxy import from_config, voxelize
 from rheo.io import write_atomic_dir
-from rheo.physics import Floor, HerschelBulkley, Simulator, kernels
 from rheo.render.lab import FloorBoard, Scene, board_texture, render
 from rheo.vision.cameras import Camera, hemisphere
 
@@ -34,25 +33,6 @@ class LabBoard:
     square: float = 0.06
     views: int = 40  # checkerboard images per camera for intrinsics
     ground_origin: tuple[float, float] = (0.25, 0.35)  # first inner corner on the floor (x, z)
-
-
-def material(cfg: dict) -> HerschelBulkley:
-    """An experiment's material section as a rheo material (PAC-NeRF's sigma_y, eta converted)."""
-    common = {"mu": cfg["mu"], "lam": cfg["lam"], "density": cfg.get("density", 1000.0)}
-    if cfg["convention"] == "pacnerf":
-        return HerschelBulkley.from_pacnerf(cfg["sigma_y"], cfg["eta"], **common)
-    return HerschelBulkley(tau_y=cfg["tau_y"], K=cfg["K"], n=cfg.get("n", 1.0), **common)
-
-
-def simulator(exp: dict, resolution: int, dtype=torch.float32) -> Simulator:
-    """The experiment's scene at ``resolution``: floor at y = 0, three grid cells below it in the domain."""
-    sim_cfg = exp["simulation"]
-    size = sim_cfg["domain_size"]
-    dx = size / resolution
-    return Simulator(material(exp["material"]), resolution=resolution, domain_size=size,
-                     domain_origin=(0.0, -kernels.BOUND * dx, 0.0), dtype=dtype,
-                     colliders=[Floor(height=0.0, contact=sim_cfg["floor"], friction=sim_cfg["floor_friction"])],
-                     gravity=sim_cfg["gravity"])
 
 
 def simulate_truth(exp: dict, progress: bool = True) -> dict:

@@ -101,7 +101,7 @@ def sample_rays(obs: Observations, frame: int, rays_per_view: int, rng: np.rando
     anywhere in the image (so that material where none was filmed is seen)."""
     origins, dirs, colours, masks = [], [], [], []
     for view in obs.views:
-        focused = int(round(focus_fraction * rays_per_view))
+        focused = round(focus_fraction * rays_per_view)
         pixels = np.r_[rng.choice(view.focus, focused), rng.integers(0, len(view.dirs), rays_per_view - focused)]
         origins.append(np.broadcast_to(view.origin, (len(pixels), 3)))
         dirs.append(view.dirs[pixels])

@@ -13,14 +13,16 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 import torch.nn.functional as F
+from scipy import ndimage
 from tqdm.auto import tqdm
 
 from rheo.fit.observations import Observations, sample_rays
-from rheo.render.field import VoxelGrid, march
+from rheo.render.field import VoxelGrid, march, render_particles
 
 logger = logging.getLogger(__name__)
 
 WHITE = torch.ones(3)
+OPAQUE = 2.0  # optical depth per particle spacing
 
 
 @dataclass
@@ -122,17 +124,64 @@ def fit_radiance_field(obs: Observations, grid: VoxelGrid, occupancy: np.ndarray
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
-            losses.append(float(loss))
+            losses.append(loss.item())
     with torch.no_grad():
         return F.softplus(raw[0]) * opaque, torch.sigmoid(raw[1:]), losses
 
 
-def field_particles(density: torch.Tensor, colour: torch.Tensor, grid: VoxelGrid, threshold: float = 0.5) -> Seed:
-    """One particle at every node whose voxel the field makes more opaque than ``threshold`` (above the floor)."""
-    alpha = 1.0 - torch.exp(-density * grid.spacing)
+def opaque_density(spacing: float) -> float:
+    """The density (1/m) every particle carries: the material is opaque, and a surface rendered from particles of
+    ``spacing`` then lies about where their volumes end."""
+    return OPAQUE / spacing
+
+
+def field_particles(density: torch.Tensor, colour: torch.Tensor, grid: VoxelGrid, threshold: float = 0.5,
+                    min_piece: float = 0.05) -> Seed:
+    """One particle at every node (above the floor) whose voxel the field makes more opaque than ``threshold``, or
+    that such voxels enclose: images constrain the surface, not the inside, so cavities are filled (the floor closes
+    the material from below). Pieces smaller than ``min_piece`` of the largest are dropped."""
+    alpha = (1.0 - torch.exp(-density * grid.spacing)).numpy()
     centres = grid.centres()
-    keep = (alpha.numpy() > threshold) & (centres[..., 1] > 0)
-    return Seed(centres[keep], density.numpy()[keep], colour.numpy().transpose(1, 2, 3, 0)[keep], grid.spacing)
+    above = centres[..., 1] > 0
+    closed = (alpha > threshold) & above
+    closed[:, :np.argmax(above, axis=1).min()] = True
+    keep = ndimage.binary_fill_holes(closed) & above
+    labels, count = ndimage.label(keep)
+    if count > 1:  # drop specks of opacity floating apart from the material
+        sizes = ndimage.sum(keep, labels, index=np.arange(1, count + 1))
+        keep = np.isin(labels, 1 + np.flatnonzero(sizes >= min_piece * sizes.max()))
+    return Seed(centres[keep], np.full(int(keep.sum()), opaque_density(grid.spacing)),
+                colour.numpy().transpose(1, 2, 3, 0)[keep], grid.spacing)
+
+
+def silhouette_iou(obs: Observations, seed: Seed, frame: int = 0) -> dict[str, float]:
+    """Per view, the IoU of the particles' rendered silhouette with the mask (over the pixels around the material)."""
+    positions = torch.as_tensor(seed.positions, dtype=torch.float32)
+    density = torch.as_tensor(seed.density, dtype=torch.float32)
+    scores = {}
+    with torch.no_grad():
+        for view in obs.views:
+            origins = torch.as_tensor(view.origin, dtype=torch.float32).expand(len(view.focus), 3)
+            _, opacity = render_particles(positions, density, None, seed.spacing, origins,
+                                          torch.as_tensor(view.dirs[view.focus]))
+            rendered, mask = opacity.numpy() > 0.5, view.masks[frame][view.focus]
+            scores[view.name] = float((rendered & mask).sum() / max((rendered | mask).sum(), 1))
+    return scores
+
+
+def seed_from_field(obs: Observations, density: torch.Tensor, colour: torch.Tensor, grid: VoxelGrid,
+                    thresholds=(0.5, 0.4, 0.3, 0.2, 0.1)) -> tuple[Seed, float, dict[str, float]]:
+    """The particles of the opacity threshold whose silhouettes best match the first frame's masks (mean IoU over
+    the views); returns them, the threshold and the IoU per view."""
+    best = None
+    for threshold in thresholds:
+        seed = field_particles(density, colour, grid, threshold)
+        scores = silhouette_iou(obs, seed)
+        logger.info("opacity threshold %.2f: %d particles, mean silhouette IoU %.4f", threshold, len(seed.positions),
+                    np.mean(list(scores.values())))
+        if best is None or np.mean(list(scores.values())) > np.mean(list(best[2].values())):
+            best = (seed, threshold, scores)
+    return best
 
 
 def proxy_particles(occupancy: np.ndarray, origin: np.ndarray, proxy_spacing: float, spacing: float) -> np.ndarray:

@@ -107,3 +107,32 @@ def march(density: torch.Tensor, colour: torch.Tensor | None, grid: VoxelGrid, o
     if background is not None:
         rgb = rgb + (1.0 - opacity)[:, None] * background
     return rgb, opacity
+
+
+def render_particles(positions: torch.Tensor, density: torch.Tensor, colour: torch.Tensor | None, spacing: float,
+                     origins: torch.Tensor, dirs: torch.Tensor,
+                     background: torch.Tensor | None = None) -> tuple[torch.Tensor | None, torch.Tensor]:
+    """Rays through a particle field splatted to a grid of ``spacing`` around the particles (colour None:
+    silhouette mode). See ``march``."""
+    grid = VoxelGrid.around(positions.detach().cpu().numpy(), spacing)
+    if colour is None:
+        field = particles_to_grid(positions, density[:, None], grid)[0]
+        return march(field, None, grid, origins, dirs)
+    return march(*particle_fields(positions, density, colour, grid), grid, origins, dirs, background)
+
+
+def render_view(positions: np.ndarray, density: np.ndarray, colour: np.ndarray, spacing: float, origin: np.ndarray,
+                dirs: np.ndarray, chunk: int = 32768) -> tuple[np.ndarray, np.ndarray]:
+    """Colours (R, 3) on white and opacities (R,) of a particle field along many rays (no gradients), in chunks."""
+    p, d, c = (torch.as_tensor(a, dtype=torch.float32) for a in (positions, density, colour))
+    grid = VoxelGrid.around(positions, spacing)
+    rgb, opacity = [], []
+    with torch.no_grad():
+        density_grid, colour_grid = particle_fields(p, d, c, grid)
+        for start in range(0, len(dirs), chunk):
+            ray_dirs = torch.as_tensor(dirs[start:start + chunk], dtype=torch.float32)
+            origins = torch.as_tensor(origin, dtype=torch.float32).expand(len(ray_dirs), 3)
+            r, o = march(density_grid, colour_grid, grid, origins, ray_dirs, torch.ones(3))
+            rgb.append(r.numpy())
+            opacity.append(o.numpy())
+    return np.concatenate(rgb), np.concatenate(opacity)

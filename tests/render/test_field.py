@@ -48,7 +48,7 @@ def test_rendered_colour_gradients_match_finite_differences():
     colour = torch.as_tensor(rng.uniform(0, 1, (60, 3)), dtype=torch.float64).requires_grad_()
     grid = VoxelGrid((0.3, 0.3, 0.3), 0.04, (11, 11, 11))
     origins = torch.as_tensor(np.c_[rng.uniform(0.42, 0.58, (40, 2)), np.full(40, -0.5)], dtype=torch.float64)
-    dirs = torch.as_tensor(rng.normal(0, 0.05, (40, 3)) + [0.0, 0.0, 1.0], dtype=torch.float64)
+    dirs = torch.as_tensor(rng.normal(0, 0.05, (40, 3)) + np.array([0.0, 0.0, 1.0]), dtype=torch.float64)
     dirs = dirs / dirs.norm(dim=1, keepdim=True)
     target = torch.as_tensor(rng.uniform(0, 1, (40, 3)), dtype=torch.float64)
     white = torch.ones(3, dtype=torch.float64)

@@ -72,7 +72,7 @@ def calibration_inputs(name):
     """Named inputs of calibrate: the images (or the lab's recordings and their truth), and the matte and proxy for
     a silhouette refinement."""
     if experiment(name)["kind"] == "virtual":
-        return {"images": [f"results/{name}/recordings"], "truth": f"results/{name}/truth.json"}
+        return {"images": [f"results/{name}/recordings"], **truth_input(name)}
     inputs = {"images": calibration_images(name)}
     if experiment(name)["calibration"]["silhouette_refinement"]:
         inputs.update(matte=f"results/{name}/matte", proxy=f"results/{name}/proxy/particles.npz")
@@ -112,3 +112,8 @@ def recording_sources(name):
         if cam.get("clean_plate"):
             files.append(cam["clean_plate"])
     return files
+
+
+def truth_input(name):
+    """The virtual lab's truth.json as a named input, for stages that score themselves against it."""
+    return {"truth": f"results/{name}/truth.json"} if experiment(name)["kind"] == "virtual" else {}

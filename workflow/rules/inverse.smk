@@ -8,17 +8,24 @@ def not_implemented(stage):
 
 rule seed:
     input:
-        masks="results/{experiment}/matte",
+        unpack(lambda w: truth_input(w.experiment)),
+        recordings="results/{experiment}/recordings",
+        matte="results/{experiment}/matte",
         cameras="results/{experiment}/calibration/cameras.json",
         proxy="results/{experiment}/proxy/particles.npz",
     output:
-        "results/{experiment}/seed/particles.npz",
+        particles="results/{experiment}/seed/particles.npz",
+        summary="results/{experiment}/seed/seed.json",
+        figure="results/{experiment}/seed/seed.png",
     log:
         "logs/{experiment}/seed.log",
     benchmark:
         "benchmarks/{experiment}/seed.tsv"
-    run:
-        not_implemented("seed")
+    params:
+        settings=lambda w: experiment(w.experiment)["fit"]["seed"],
+        simulation=lambda w: experiment(w.experiment)["simulation"],
+    script:
+        "../../stages/seed.py"
 
 
 rule velocity:

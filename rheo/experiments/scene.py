@@ -1,0 +1,33 @@
+"""An experiment's simulated scene (material, domain, floor, gravity), shared by the virtual lab and the fit."""
+
+from __future__ import annotations
+
+import torch
+
+from rheo.physics import Floor, HerschelBulkley, Simulator, kernels
+
+
+def material(cfg: dict) -> HerschelBulkley:
+    """An experiment's material section as a rheo material (PAC-NeRF's sigma_y, eta converted)."""
+    common = {"mu": cfg["mu"], "lam": cfg["lam"], "density": cfg.get("density", 1000.0)}
+    if cfg["convention"] == "pacnerf":
+        return HerschelBulkley.from_pacnerf(cfg["sigma_y"], cfg["eta"], **common)
+    return HerschelBulkley(tau_y=cfg["tau_y"], K=cfg["K"], n=cfg.get("n", 1.0), **common)
+
+
+def simulator(exp: dict, resolution: int, dtype=torch.float32, mat: HerschelBulkley | None = None) -> Simulator:
+    """The experiment's scene at ``resolution`` (its own material unless ``mat`` is given): floor at y = 0, three
+    grid cells below it in the domain."""
+    sim_cfg = exp["simulation"]
+    size = sim_cfg["domain_size"]
+    dx = size / resolution
+    return Simulator(material(exp["material"]) if mat is None else mat, resolution=resolution, domain_size=size,
+                     domain_origin=(0.0, -kernels.BOUND * dx, 0.0), dtype=dtype,
+                     colliders=[Floor(height=0.0, contact=sim_cfg["floor"], friction=sim_cfg["floor_friction"])],
+                     gravity=sim_cfg["gravity"])
+
+
+def particle_spacing(exp: dict, resolution: int | None = None) -> float:
+    """Particle spacing of a simulation at ``resolution`` (the fit's by default): two particles per cell and axis."""
+    sim_cfg = exp["simulation"]
+    return sim_cfg["domain_size"] / (resolution or sim_cfg["resolution"]) / 2
