@@ -401,10 +401,10 @@ def build(scalar: type) -> SimpleNamespace:
     def grid_update(grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3), dt: scalar,
                     time: scalar, dx: scalar, gravity: vec3, shapes: wp.array(dtype=int),
                     laws: wp.array(dtype=int), geom: wp.array2d(dtype=scalar), timing: wp.array2d(dtype=scalar),
-                    bparams: wp.array2d(dtype=scalar), grid_v: wp.array3d(dtype=vec3)):
+                    bparams: wp.array2d(dtype=scalar), min_mass: scalar, grid_v: wp.array3d(dtype=vec3)):
         i, j, k = wp.tid()
         m = grid_m[i, j, k]
-        if m <= zero:
+        if m <= min_mass:  # empty, or touched only by a weight's rounding error (whose adjoint 1/m^2 overflows)
             grid_v[i, j, k] = vec3()
             return
         v = grid_mv[i, j, k] / m + dt * gravity

@@ -255,6 +255,7 @@ class _Run:
                  particle_volume: float, progress: bool) -> None:
         self.sim, self.material, self.dt, self.substeps, self.frames = sim, material, dt, substeps, frames
         self.particle_volume = particle_volume
+        self.min_mass = 1e-6 * material.density * particle_volume  # a millionth of a particle's mass
         self.progress = progress
         self.steps = frames * substeps
         ca = sim.collider_arrays
@@ -283,7 +284,7 @@ class _Run:
                       outputs=[F1, m, mv])
             wp.launch(k.grid_update, dim=m.shape, inputs=[m, mv, s(self.dt), s(step * self.dt), s(sim.dx),
                                                           k.vec3(*sim.gravity), self.shapes, self.laws, self.geom,
-                                                          self.timing, self.bnd], outputs=[gv])
+                                                          self.timing, self.bnd, s(self.min_mass)], outputs=[gv])
             wp.launch(k.g2p, dim=len(x), inputs=[x, gv, s(self.dt), s(inv_dx)],
                       outputs=[x1, v1, C1, self.unstable])
 
