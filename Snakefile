@@ -17,7 +17,11 @@ include: "workflow/rules/proxy.smk"
 include: "workflow/rules/synthesize.smk"
 include: "workflow/rules/ingest.smk"
 include: "workflow/rules/matte.smk"
-include: "workflow/rules/inverse.smk"
+include: "workflow/rules/seed.smk"
+include: "workflow/rules/velocity.smk"
+include: "workflow/rules/fit.smk"
+include: "workflow/rules/diagnose.smk"
+include: "workflow/rules/report.smk"
 
 
 rule all:

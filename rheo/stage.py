@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+import json
 import logging
 import sys
 from pathlib import Path
@@ -16,3 +18,15 @@ def setup_logging(log_file: str | Path | None) -> logging.Logger:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s: %(message)s",
                         handlers=handlers, force=True)
     return logging.getLogger("rheo.stage")
+
+
+def inputs_key(settings: object, paths: list[str | Path]) -> str:
+    """A fingerprint of a stage's settings and input files (size and modification time of every file under each
+    path): a checkpoint is resumed only under the same key."""
+    hasher = hashlib.sha256(json.dumps(settings, sort_keys=True, default=str).encode())
+    for path in map(Path, paths):
+        files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
+        for f in files:
+            stat = f.stat()
+            hasher.update(f"{f}:{stat.st_size}:{stat.st_mtime_ns}".encode())
+    return hasher.hexdigest()

@@ -1,4 +1,5 @@
-"""The virtual lab: simulate an experiment finer than any fit will, and film it with the lab renderer.
+"""The virtual lab: simulate an experiment with finer particles than any fit (on the fit's grid) from the true
+geometry, and film it with the lab renderer (not the fit's).
 
 Recordings layout (the same that ingest writes for real videos), per camera ``<cam>/``: ``frames/NNN.png``,
 ``video.mp4``, ``clean_plate.png``, ``checkerboard/NN.png`` (board poses for intrinsics), ``ground_board.png`` (the
@@ -36,10 +37,10 @@ class LabBoard:
 
 
 def simulate_truth(exp: dict, progress: bool = True) -> dict:
-    """Particle positions at every recorded frame, simulated at the lab resolution."""
+    """Particle positions at every recorded frame, simulated with the lab's particles per cell."""
     sim_cfg = exp["simulation"]
-    sim = simulator(exp, sim_cfg["lab_resolution"])
-    spacing = sim.dx / 2
+    sim = simulator(exp, sim_cfg["resolution"])
+    spacing = sim.dx / sim_cfg["lab_particles_per_cell"]
     mesh, _ = from_config(exp["proxy"])
     particles = torch.as_tensor(voxelize(mesh, spacing).particles, dtype=torch.float32)
     frames = sim_cfg["frames"] - 1

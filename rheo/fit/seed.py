@@ -163,7 +163,7 @@ def silhouette_iou(obs: Observations, seed: Seed, frame: int = 0) -> dict[str, f
         for view in obs.views:
             origins = torch.as_tensor(view.origin, dtype=torch.float32).expand(len(view.focus), 3)
             _, opacity = render_particles(positions, density, None, seed.spacing, origins,
-                                          torch.as_tensor(view.dirs[view.focus]))
+                                          torch.as_tensor(view.dirs[view.focus]), anchor=seed.positions[0])
             rendered, mask = opacity.numpy() > 0.5, view.masks[frame][view.focus]
             scores[view.name] = float((rendered & mask).sum() / max((rendered | mask).sum(), 1))
     return scores

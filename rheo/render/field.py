@@ -25,11 +25,14 @@ class VoxelGrid:
     shape: tuple[int, int, int]
 
     @classmethod
-    def around(cls, points: np.ndarray, spacing: float, pad: int = 2) -> VoxelGrid:
-        """The grid on the lattice of ``spacing`` that holds ``points`` with ``pad`` nodes to spare on every side."""
-        lo = np.floor(points.min(axis=0) / spacing) - pad
-        hi = np.ceil(points.max(axis=0) / spacing) + pad
-        return cls(tuple((lo * spacing).tolist()), float(spacing), tuple((hi - lo + 1).astype(int).tolist()))
+    def around(cls, points: np.ndarray, spacing: float, pad: int = 2, anchor: np.ndarray | None = None) -> VoxelGrid:
+        """The grid of ``spacing`` that holds ``points`` with ``pad`` nodes to spare on every side: its nodes on
+        multiples of ``spacing``, or, with ``anchor``, half a spacing off it (a particle lattice through ``anchor``
+        then lies at cell centres, where the trilinear weights have no kink and their gradient is two-sided)."""
+        shift = np.zeros(3) if anchor is None else np.asarray(anchor, float) + 0.5 * spacing
+        lo = np.floor((points.min(axis=0) - shift) / spacing) - pad
+        hi = np.ceil((points.max(axis=0) - shift) / spacing) + pad
+        return cls(tuple((shift + lo * spacing).tolist()), float(spacing), tuple((hi - lo + 1).astype(int).tolist()))
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         lo = np.asarray(self.origin)
@@ -110,11 +113,11 @@ def march(density: torch.Tensor, colour: torch.Tensor | None, grid: VoxelGrid, o
 
 
 def render_particles(positions: torch.Tensor, density: torch.Tensor, colour: torch.Tensor | None, spacing: float,
-                     origins: torch.Tensor, dirs: torch.Tensor,
-                     background: torch.Tensor | None = None) -> tuple[torch.Tensor | None, torch.Tensor]:
+                     origins: torch.Tensor, dirs: torch.Tensor, background: torch.Tensor | None = None,
+                     anchor: np.ndarray | None = None) -> tuple[torch.Tensor | None, torch.Tensor]:
     """Rays through a particle field splatted to a grid of ``spacing`` around the particles (colour None:
-    silhouette mode). See ``march``."""
-    grid = VoxelGrid.around(positions.detach().cpu().numpy(), spacing)
+    silhouette mode; ``anchor``: see ``VoxelGrid.around``). See ``march``."""
+    grid = VoxelGrid.around(positions.detach().cpu().numpy(), spacing, anchor=anchor)
     if colour is None:
         field = particles_to_grid(positions, density[:, None], grid)[0]
         return march(field, None, grid, origins, dirs)
@@ -125,7 +128,7 @@ def render_view(positions: np.ndarray, density: np.ndarray, colour: np.ndarray, 
                 dirs: np.ndarray, chunk: int = 32768) -> tuple[np.ndarray, np.ndarray]:
     """Colours (R, 3) on white and opacities (R,) of a particle field along many rays (no gradients), in chunks."""
     p, d, c = (torch.as_tensor(a, dtype=torch.float32) for a in (positions, density, colour))
-    grid = VoxelGrid.around(positions, spacing)
+    grid = VoxelGrid.around(positions, spacing, anchor=positions[0])
     rgb, opacity = [], []
     with torch.no_grad():
         density_grid, colour_grid = particle_fields(p, d, c, grid)

@@ -65,6 +65,5 @@ def test_dag_lists_every_stage_through_the_report(workflow):
     plan = workflow.run("-n", "results/cup/report.html")
     assert plan.returncode == 0, plan.stderr[-3000:]
     stats = plan.stdout.split("Job stats")[1]
-    for stage in ("synthesize", "calibrate", "matte", "proxy", "seed", "velocity", "fit_warmup", "fit", "diagnose",
-                  "report"):
+    for stage in ("synthesize", "calibrate", "matte", "proxy", "seed", "velocity", "fit_warmup", "fit", "report"):
         assert f"\n{stage} " in stats, stage

@@ -1,4 +1,5 @@
-# synthesize: the virtual lab. Simulates a virtual experiment finer than any fit and films it with the lab renderer.
+# synthesize: the virtual lab. Simulates a virtual experiment with finer particles than the fit's and films it with
+# the lab renderer.
 
 
 rule synthesize:

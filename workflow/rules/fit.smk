@@ -1,0 +1,45 @@
+# fit: the constitutive parameters, a warm-up on the first frames and then every frame (checkpointed, resumable).
+
+
+rule fit_warmup:
+    input:
+        unpack(lambda w: truth_input(w.experiment)),
+        recordings="results/{experiment}/recordings",
+        matte="results/{experiment}/matte",
+        cameras="results/{experiment}/calibration/cameras.json",
+        seed="results/{experiment}/seed/particles.npz",
+        velocity="results/{experiment}/velocity/velocity.json",
+    output:
+        warmup="results/{experiment}/fit/warmup.json",
+    log:
+        "logs/{experiment}/fit_warmup.log",
+    benchmark:
+        "benchmarks/{experiment}/fit_warmup.tsv"
+    params:
+        experiment=lambda w: experiment(w.experiment),
+        phase="warmup",
+    script:
+        "../../stages/fit.py"
+
+
+rule fit:
+    input:
+        unpack(lambda w: truth_input(w.experiment)),
+        recordings="results/{experiment}/recordings",
+        matte="results/{experiment}/matte",
+        cameras="results/{experiment}/calibration/cameras.json",
+        seed="results/{experiment}/seed/particles.npz",
+        velocity="results/{experiment}/velocity/velocity.json",
+        warmup="results/{experiment}/fit/warmup.json",
+    output:
+        params="results/{experiment}/fit/params.json",
+        history="results/{experiment}/fit/history.csv",
+    log:
+        "logs/{experiment}/fit.log",
+    benchmark:
+        "benchmarks/{experiment}/fit.tsv"
+    params:
+        experiment=lambda w: experiment(w.experiment),
+        phase="full",
+    script:
+        "../../stages/fit.py"
