@@ -25,12 +25,16 @@ warmup = phase_name == "warmup"
 frames = settings["warmup"]["frames"] + 1 if warmup else None
 obs = load(smk.input.recordings, smk.input.matte, smk.input.cameras, frames=frames)
 problem = build_problem(exp, obs, smk.input.seed)
-v0 = torch.tensor(read_json(smk.input.velocity)["v0"], dtype=torch.float64)
+# the fitted variables: the log-parameters, then the initial velocity (refined jointly from the velocity stage's
+# estimate) in units of VELOCITY_SCALE, so that one Adam step moves it by a fraction of that
+VELOCITY_SCALE = 0.5  # m/s
+count = len(problem.names)
 if warmup:
-    start = log_values(initial_guess(exp), problem.names)
+    v0 = torch.tensor(read_json(smk.input.velocity)["v0"], dtype=torch.float64)
+    start = torch.cat([log_values(initial_guess(exp), problem.names), v0 / VELOCITY_SCALE])
     phase = Phase("warm-up", obs.frames - 1, settings["warmup"]["iterations"], settings["warmup"]["learning_rate"])
 else:
-    start = torch.tensor(read_json(smk.input.warmup)["log_values"], dtype=torch.float64)
+    start = torch.tensor(read_json(smk.input.warmup)["variables"], dtype=torch.float64)
     phase = Phase("full", obs.frames - 1, settings["full"]["iterations"], settings["full"]["learning_rate"])
 output = Path(smk.output[0])
 checkpoint = output.with_suffix(".checkpoint")
@@ -39,20 +43,24 @@ key = inputs_key([exp, phase_name], [smk.input.seed, smk.input.cameras, smk.inpu
 
 
 def loss(variables: torch.Tensor, frame_count: int, rng: np.random.Generator) -> torch.Tensor:
-    return problem.loss(variables, v0, frame_count, settings["rays_per_view"], rng)
+    return problem.loss(variables[:count], VELOCITY_SCALE * variables[count:], frame_count,
+                        settings["rays_per_view"], rng)
 
 
 def describe(variables: torch.Tensor) -> dict[str, float]:
-    return dict(zip(problem.names, torch.exp(variables).tolist(), strict=True))
+    velocity = (VELOCITY_SCALE * variables[count:]).tolist()
+    return {**dict(zip(problem.names, torch.exp(variables[:count]).tolist(), strict=True)),
+            **dict(zip(("vx", "vy", "vz"), velocity, strict=True))}
 
 
 fitted, history = run_phase(phase, start, loss, describe, checkpoint, key)
 values = describe(fitted)
 log.info("%s: %s", phase.name, ", ".join(f"{k} = {v:.4g}" for k, v in values.items()))
 if warmup:
-    write_json_atomic(smk.output.warmup, {"values": values, "log_values": fitted.tolist(), "history": history})
+    write_json_atomic(smk.output.warmup, {"values": values, "variables": fitted.tolist(), "history": history})
 else:
-    intervals, evidence = laplace_intervals(problem, fitted, v0, obs.frames - 1, settings["rays_per_view"])
+    v0 = VELOCITY_SCALE * fitted[count:]
+    intervals, evidence = laplace_intervals(problem, fitted[:count], v0, obs.frames - 1, settings["rays_per_view"])
     truth = read_json(smk.input.truth)["material"]["as_configured"] if hasattr(smk.input, "truth") else {}
     guess = initial_guess(exp)
     params = {}
@@ -65,7 +73,7 @@ else:
         log.info("%s = %.4g, 95%% interval [%.4g, %.4g]%s%s", name, interval.value, interval.low, interval.high,
                  "" if interval.determined else " (not determined by the recording)",
                  f", truth {truth[name]:.4g} ({entry['error']:+.1%})" if name in truth else "")
-    hb = material({**exp["material"], **values})
+    hb = material({**exp["material"], **{k: values[k] for k in problem.names}})
     write_json_atomic(smk.output.params, {
         "convention": exp["material"]["convention"], "parameters": params, "evidence": evidence,
         "herschel_bulkley": {"tau_y": hb.tau_y, "K": hb.K, "n": hb.n, "mu": hb.mu, "lam": hb.lam,

@@ -81,7 +81,7 @@ def laplace_intervals(problem: Problem, log_values: torch.Tensor, v0: torch.Tens
         doubling[name] = float(A[i, i] * math.log(2.0) ** 2 / max(loss, 1e-30))
     evidence = {"loss": loss, "rays_per_view": rays_per_view, "frames": frames, "step_log": step,
                 "jacobian_norm": {n: float(math.sqrt(A[i, i])) for i, n in enumerate(problem.names)},
-                "loss_increase_if_doubled": doubling,
+                "loss_increase_if_doubled": doubling, "covariance_log": covariance.tolist(),
                 "correlation": (covariance / np.sqrt(np.outer(np.diag(covariance), np.diag(covariance)) + 1e-300))
                 .round(3).tolist()}
     return intervals, evidence

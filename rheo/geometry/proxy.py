@@ -81,8 +81,9 @@ def box(extents) -> trimesh.Trimesh:
     return mesh
 
 
-def load_mesh(path: str | Path, scale: float = 1.0) -> trimesh.Trimesh:
-    """A closed triangle mesh from an OBJ, STL or PLY file (in its own frame, scaled by ``scale``)."""
+def load_mesh(path: str | Path, scale: float = 1.0, require_watertight: bool = True) -> trimesh.Trimesh:
+    """A closed triangle mesh from an OBJ, STL or PLY file (in its own frame, scaled by ``scale``). A scan with small
+    holes passes with ``require_watertight=False`` (then voxelize it with ``directions=3``)."""
     path = Path(path)
     if path.suffix.lower() not in {".obj", ".stl", ".ply"}:
         raise ProxyError(f"{path}: unsupported mesh format {path.suffix!r}; use OBJ, STL or PLY")
@@ -94,7 +95,7 @@ def load_mesh(path: str | Path, scale: float = 1.0) -> trimesh.Trimesh:
         raise ProxyError(f"{path}: not a readable mesh ({err})") from err
     if len(mesh.faces) == 0:
         raise ProxyError(f"{path}: the mesh has no triangles")
-    if not mesh.is_watertight:
+    if require_watertight and not mesh.is_watertight:
         open_edges = len(trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1))
         raise ProxyError(f"{path}: the mesh is not watertight ({open_edges} open edges), so it encloses no volume; "
                          f"close its holes first")
@@ -102,8 +103,39 @@ def load_mesh(path: str | Path, scale: float = 1.0) -> trimesh.Trimesh:
     return mesh
 
 
-def voxelize(mesh: trimesh.Trimesh, spacing: float) -> Voxelized:
-    """Occupancy of the lattice of cell centres (spacing ``spacing``) covering the mesh, and its particles."""
+def _parity_occupancy(mesh: trimesh.Trimesh, axes: list[np.ndarray], axis: int, start: float) -> np.ndarray:
+    """Cell centres inside the mesh by the parity of surface crossings along rays parallel to ``axis`` (one ray per
+    column of cells, slightly off the lattice so that no ray grazes an edge exactly)."""
+    a, b = [i for i in range(3) if i != axis]
+    spacing = axes[axis][1] - axes[axis][0] if len(axes[axis]) > 1 else 1.0
+    ga, gb = np.meshgrid(axes[a] + 1.1e-7 * spacing, axes[b] + 1.3e-7 * spacing, indexing="ij")
+    origins = np.zeros((ga.size, 3))
+    origins[:, a], origins[:, b], origins[:, axis] = ga.ravel(), gb.ravel(), start
+    directions = np.zeros_like(origins)
+    directions[:, axis] = 1.0
+    locations, ray_index, _ = mesh.ray.intersects_location(origins, directions, multiple_hits=True)
+    shape = [len(x) for x in axes]
+    occupancy = np.zeros(shape, dtype=bool)
+    order = np.lexsort((locations[:, axis], ray_index))
+    ray_index, depths = ray_index[order], locations[order, axis]
+    for ray in np.unique(ray_index):
+        ts = depths[ray_index == ray]
+        ts = ts[np.concatenate([[True], np.diff(ts) > 1e-9 * spacing])]  # one crossing per surface
+        i, k = divmod(int(ray), shape[b])
+        index: list = [None, None, None]
+        index[a], index[b] = i, k
+        for enter, leave in zip(ts[0::2], ts[1::2], strict=False):
+            index[axis] = (axes[axis] > enter) & (axes[axis] < leave)
+            occupancy[tuple(index)] = True
+    return occupancy
+
+
+def voxelize(mesh: trimesh.Trimesh, spacing: float, directions: int = 1) -> Voxelized:
+    """Occupancy of the lattice of cell centres (spacing ``spacing``) covering the mesh, and its particles.
+
+    Inside is decided by the parity of crossings along vertical rays; with ``directions = 3``, by the majority of
+    rays along x, y and z, which tolerates small holes in a scanned mesh (a hole only misleads the rays through it).
+    """
     if not (math.isfinite(spacing) and spacing > 0):
         raise ProxyError(f"voxel spacing {spacing!r} must be finite and > 0")
     lo, hi = mesh.bounds
@@ -112,20 +144,11 @@ def voxelize(mesh: trimesh.Trimesh, spacing: float) -> Voxelized:
         raise ProxyError(f"voxel spacing {spacing:g} m gives {counts.prod():,} cells over the mesh; use a coarser one")
     origin = lo + 0.5 * spacing * np.ones(3)
     axes = [origin[a] + spacing * np.arange(counts[a]) for a in range(3)]
-    # one ray per (x, z) column, along +y, slightly off the lattice to avoid grazing edges exactly
-    gx, gz = np.meshgrid(axes[0] + 1e-7 * spacing, axes[2] + 1.3e-7 * spacing, indexing="ij")
-    origins = np.stack([gx.ravel(), np.full(gx.size, lo[1] - spacing), gz.ravel()], axis=1)
-    directions = np.tile([0.0, 1.0, 0.0], (len(origins), 1))
-    locations, ray_index, _ = mesh.ray.intersects_location(origins, directions, multiple_hits=True)
-    occupancy = np.zeros(counts, dtype=bool)
-    order = np.lexsort((locations[:, 1], ray_index))
-    ray_index, heights = ray_index[order], locations[order, 1]
-    for ray in np.unique(ray_index):
-        ys = heights[ray_index == ray]
-        ys = ys[np.concatenate([[True], np.diff(ys) > 1e-9 * spacing])]  # one crossing per surface
-        i, k = divmod(int(ray), counts[2])
-        for enter, leave in zip(ys[0::2], ys[1::2], strict=False):
-            occupancy[i, (axes[1] > enter) & (axes[1] < leave), k] = True
+    if directions == 1:
+        occupancy = _parity_occupancy(mesh, axes, 1, lo[1] - spacing)
+    else:
+        votes = sum(_parity_occupancy(mesh, axes, a, lo[a] - spacing).astype(int) for a in range(3))
+        occupancy = votes >= 2
     index = np.argwhere(occupancy)
     return Voxelized(occupancy=occupancy, origin=origin, spacing=spacing, particles=origin + index * spacing)
 

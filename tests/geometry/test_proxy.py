@@ -4,6 +4,7 @@ import math
 from pathlib import Path
 
 import pytest
+import trimesh
 
 from rheo.geometry import proxy
 
@@ -51,3 +52,17 @@ def test_bad_proxy_input(tmp_path):
         proxy.load_mesh(tmp_path / "missing.stl")
     with pytest.raises(proxy.ProxyError, match=r"proxy height = -1\.0 must be finite and > 0"):
         proxy.cylinder(0.1, -1.0)
+
+
+def test_majority_voxelization_tolerates_a_hole_in_a_scanned_mesh(tmp_path):
+    sphere = trimesh.creation.icosphere(subdivisions=4, radius=0.1)
+    bottom = sphere.triangles_center[:, 1] < -0.095  # a hole around the south pole, as under a scanned bunny
+    holed = trimesh.Trimesh(sphere.vertices, sphere.faces[~bottom], process=False)
+    path = tmp_path / "holed.stl"
+    holed.export(path)
+    with pytest.raises(proxy.ProxyError, match="not watertight"):
+        proxy.load_mesh(path)
+    mesh = proxy.load_mesh(path, require_watertight=False)
+    exact = sphere.volume
+    assert proxy.voxelize(mesh, 0.005, directions=3).volume == pytest.approx(exact, rel=0.02)
+    assert abs(proxy.voxelize(mesh, 0.005).volume / exact - 1) > 0.02  # vertical rays alone see through the hole

@@ -1,0 +1,131 @@
+"""The experiment report: parameter table, training plots (thesis Appendix A layout), observed / initial-guess /
+learned frames, animations per view, the recovered flow curve with its band, stage runtimes and the configuration."""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+import json
+import math
+
+import imageio.v2 as imageio
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from rheo.report.html import figure_tag, page, table_tag
+
+SYMBOLS = {"mu": "μ", "lam": "λ", "sigma_y": "σ_y", "eta": "η", "tau_y": "τ_y", "K": "K", "n": "n"}
+
+
+def training_figure(history: list[dict], names: list[str], truth: dict[str, float]):
+    """Loss and learning rate on top, one panel per parameter below; the warm-up's end marked."""
+    rows = math.ceil(len(names) / 2) + 1
+    fig, axes = plt.subplots(rows, 2, figsize=(10, 2.8 * rows), squeeze=False)
+    step = np.arange(len(history))
+    boundary = sum(1 for h in history if h["phase"] != "full")
+    panels = [(axes[0, 0], "loss", "loss"), (axes[0, 1], "learning_rate", "learning rate (every parameter)")]
+    panels += [(axes.ravel()[2 + i], n, SYMBOLS.get(n, n)) for i, n in enumerate(names)]
+    for ax, key, label in panels:
+        ax.plot(step, [float(h[key]) for h in history], lw=1.2)
+        if key in truth:
+            ax.axhline(truth[key], color="tab:green", ls="--", lw=1, label="truth")
+            ax.legend(fontsize=8)
+        if key in names or key == "loss":
+            ax.set_yscale("log")
+        if 0 < boundary < len(history):
+            ax.axvline(boundary, color="0.6", ls=":", lw=1)
+        ax.set_title(label, fontsize=10)
+        ax.set_xlabel("iteration")
+        ax.grid(alpha=0.3)
+    for ax in axes.ravel()[2 + len(names):]:
+        ax.axis("off")
+    fig.tight_layout()
+    return fig
+
+
+def flow_curve_figure(tau_y: float, K: float, n: float, samples: np.ndarray | None, truth: tuple | None = None):
+    """tau(gamma_dot) = tau_y + K gamma_dot^n with the 95 % band of ``samples`` (rows of tau_y, K, n)."""
+    rate = np.logspace(-2, 3, 200)
+    fig, ax = plt.subplots(figsize=(5.5, 3.8))
+    if samples is not None and len(samples):
+        curves = samples[:, :1] + samples[:, 1:2] * rate[None, :] ** samples[:, 2:3]
+        ax.fill_between(rate, *np.percentile(curves, [2.5, 97.5], axis=0), color="tab:blue", alpha=0.2,
+                        label="95 % band")
+    ax.plot(rate, tau_y + K * rate**n, color="tab:blue", label="recovered")
+    if truth is not None:
+        ax.plot(rate, truth[0] + truth[1] * rate ** truth[2], "--", color="tab:green", label="truth")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("shear rate (1/s)")
+    ax.set_ylabel("shear stress (Pa)")
+    ax.set_title("flow curve (Herschel-Bulkley)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    return fig
+
+
+def frames_figure(rows: list[tuple[str, list[tuple[str, np.ndarray]]]]):
+    """Rows of labelled images (observed / initial guess / learned at chosen times)."""
+    columns = max(len(r[1]) for r in rows)
+    fig, axes = plt.subplots(len(rows), columns, figsize=(2.6 * columns, 2.5 * len(rows)), squeeze=False)
+    for ax in axes.ravel():
+        ax.axis("off")
+    for r, (label, panels) in enumerate(rows):
+        for c, (title, image) in enumerate(panels):
+            axes[r, c].imshow(np.clip(image, 0, 1))
+            axes[r, c].set_title(f"{label}, {title}", fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def gif_tag(frames: list[np.ndarray], caption: str, fps: float = 6.0) -> str:
+    """An animated GIF (frames as float RGB in [0, 1]) inline."""
+    buf = io.BytesIO()
+    imageio.mimwrite(buf, [(np.clip(f, 0, 1) * 255).astype(np.uint8) for f in frames], format="GIF",
+                     duration=1.0 / fps, loop=0)
+    data = base64.b64encode(buf.getvalue()).decode()
+    return (f'<figure><img alt="{html.escape(caption)}" src="data:image/gif;base64,{data}">'
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+
+def parameter_rows(params: dict) -> tuple[list[str], list[list[str]], list[str]]:
+    """The parameter table: truth where known, initial guess, recovered, interval, % error, determined."""
+    header = ["parameter", "truth", "initial guess", "recovered", "95 % interval", "error", "determined"]
+    rows, classes = [], []
+    for name, p in params.items():
+        error = p.get("error")
+        rows.append([SYMBOLS.get(name, name), f"{p['truth']:.4g}" if "truth" in p else "unknown",
+                     f"{p['initial']:.4g}", f"{p['value']:.4g}", f"[{p['ci95'][0]:.3g}, {p['ci95'][1]:.3g}]",
+                     f"{error:+.1%}" if error is not None else "-", "yes" if p["determined"] else "no"])
+        classes.append("" if error is None else ("good" if abs(error) <= 0.1 else "bad"))
+    return header, rows, classes
+
+
+def render(name: str, params: dict, sections: list[tuple[str, str]], config: dict,
+           runtimes: list[tuple[str, float]]) -> str:
+    """The page: parameter table first, then each (heading, html) section, runtimes and the configuration."""
+    header, rows, classes = parameter_rows(params["parameters"])
+    body = [f"<p>Convention: {html.escape(params['convention'])}. Initial velocity "
+            f"{np.round(params['initial_velocity'], 4).tolist()} m/s. Herschel-Bulkley: "
+            + ", ".join(f"{k} = {v:.4g}" for k, v in params["herschel_bulkley"].items()) + ".</p>",
+            table_tag(header, rows, classes)]
+    undetermined = [SYMBOLS.get(k, k) for k, p in params["parameters"].items() if not p["determined"]]
+    if undetermined:
+        doubling = params["evidence"]["loss_increase_if_doubled"]
+        body.append("<p>Not determined by this recording: " + ", ".join(undetermined) + " (95 % interval wider than a "
+                    "factor 4; doubling it raises the loss by "
+                    + ", ".join(f"{SYMBOLS.get(k, k)}: {doubling[k]:.2%}" for k, p in params["parameters"].items()
+                                if not p["determined"]) + ").</p>")
+    for heading, content in sections:
+        body.append(f"<h2>{html.escape(heading)}</h2>{content}")
+    body.append("<h2>Stage runtimes</h2>" + table_tag(["stage", "seconds"],
+                                                      [[s, f"{t:.1f}"] for s, t in runtimes]))
+    body.append("<h2>Configuration</h2><pre>" + html.escape(json.dumps(config, indent=2)) + "</pre>")
+    return page(f"rheo: {name}", "".join(body))
+
+
+__all__ = ["figure_tag", "flow_curve_figure", "frames_figure", "gif_tag", "render", "training_figure"]
