@@ -21,6 +21,7 @@ include: "workflow/rules/seed.smk"
 include: "workflow/rules/velocity.smk"
 include: "workflow/rules/fit.smk"
 include: "workflow/rules/diagnose.smk"
+include: "workflow/rules/novel.smk"
 include: "workflow/rules/report.smk"
 
 

@@ -62,11 +62,20 @@ def particles_to_grid(positions: torch.Tensor, values: torch.Tensor, grid: Voxel
     return out.reshape(values.shape[1], *grid.shape)
 
 
-def particle_fields(positions: torch.Tensor, density: torch.Tensor, colour: torch.Tensor,
-                    grid: VoxelGrid) -> tuple[torch.Tensor, torch.Tensor]:
-    """Density (nx, ny, nz) and colour (3, nx, ny, nz) grids of a particle field."""
-    sums = particles_to_grid(positions, torch.cat([density[:, None], density[:, None] * colour], dim=1), grid)
-    return sums[0], sums[1:] / sums[:1].clamp_min(1e-8)
+def particle_fields(positions: torch.Tensor, density: torch.Tensor, colour: torch.Tensor | None,
+                    grid: VoxelGrid) -> tuple[torch.Tensor, torch.Tensor | None]:
+    """Density (nx, ny, nz) and colour (3, nx, ny, nz) grids of a particle field whose particles sit on a lattice
+    of the grid's spacing: the splatted particle count is about 1 inside the material and falls through 1/2 where
+    the particles' volumes end, so the density is the particles' mean density times the count above 1/2 (doubled):
+    the rendered surface is the material's, not half a particle further out."""
+    values = [torch.ones_like(density)[:, None], density[:, None]]
+    if colour is not None:
+        values.append(density[:, None] * colour)
+    sums = particles_to_grid(positions, torch.cat(values, dim=1), grid)
+    count, weighted = sums[0], sums[1]
+    mean_density = weighted / count.clamp_min(1e-8)
+    field = mean_density * torch.clamp(2.0 * count - 1.0, min=0.0)
+    return field, None if colour is None else sums[2:] / weighted.clamp_min(1e-8)
 
 
 def _ray_box(origins: torch.Tensor, dirs: torch.Tensor, lo: np.ndarray, hi: np.ndarray):
@@ -118,9 +127,6 @@ def render_particles(positions: torch.Tensor, density: torch.Tensor, colour: tor
     """Rays through a particle field splatted to a grid of ``spacing`` around the particles (colour None:
     silhouette mode; ``anchor``: see ``VoxelGrid.around``). See ``march``."""
     grid = VoxelGrid.around(positions.detach().cpu().numpy(), spacing, anchor=anchor)
-    if colour is None:
-        field = particles_to_grid(positions, density[:, None], grid)[0]
-        return march(field, None, grid, origins, dirs)
     return march(*particle_fields(positions, density, colour, grid), grid, origins, dirs, background)
 
 

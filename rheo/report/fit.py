@@ -129,3 +129,28 @@ def render(name: str, params: dict, sections: list[tuple[str, str]], config: dic
 
 
 __all__ = ["figure_tag", "flow_curve_figure", "frames_figure", "gif_tag", "render", "training_figure"]
+
+
+def focus_crop(view, frames: slice = slice(None), margin: int = 16) -> tuple[slice, slice]:
+    """The image region (rows, columns) around the material over ``frames`` of a view, with ``margin`` pixels."""
+    cam = view.camera
+    seen = view.masks[frames].any(axis=0).reshape(cam.height, cam.width)
+    rows, cols = np.nonzero(seen) if seen.any() else (np.array([0, cam.height - 1]), np.array([0, cam.width - 1]))
+    return (slice(max(rows.min() - margin, 0), min(rows.max() + margin + 1, cam.height)),
+            slice(max(cols.min() - margin, 0), min(cols.max() + margin + 1, cam.width)))
+
+
+def observed_crop(view, frame: int, crop: tuple[slice, slice]) -> np.ndarray:
+    cam = view.camera
+    return view.images[frame].reshape(cam.height, cam.width, 3)[crop] / 255.0
+
+
+def rendered_crop(positions: np.ndarray, density: np.ndarray, colour: np.ndarray, spacing: float, view,
+                  crop: tuple[slice, slice]) -> np.ndarray:
+    """The particle field rendered on white over the cropped pixels of a view."""
+    from rheo.render.field import render_view
+
+    cam = view.camera
+    dirs = view.dirs.reshape(cam.height, cam.width, 3)[crop]
+    rgb, _ = render_view(positions, density, colour, spacing, view.origin, dirs.reshape(-1, 3))
+    return rgb.reshape(*dirs.shape[:2], 3)

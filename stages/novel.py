@@ -1,0 +1,35 @@
+"""novel: the recovered material on a new shape (the Stanford bunny by default), filmed by a calibrated camera with
+the lab renderer: an mp4 and a strip of the beginning, middle and end."""
+
+import imageio.v2 as imageio
+
+from rheo.experiments.novel import mesh_particles, recovered_material, simulate
+from rheo.experiments.scene import particle_spacing, simulator
+from rheo.io import read_json, write_atomic
+from rheo.render.lab import render
+from rheo.report.figures import contact_sheet, save_figure
+from rheo.stage import setup_logging
+from rheo.vision.cameras import Camera
+
+smk = snakemake  # noqa: F821  (injected by Snakemake)
+log = setup_logging(smk.log[0])
+exp = smk.params.experiment
+cfg, sim_cfg = exp["novel"], exp["simulation"]
+params = read_json(smk.input.params)
+cameras = read_json(smk.input.cameras)["cameras"]
+camera = Camera.from_record(cameras[cfg["camera"] or next(iter(cameras))])
+spacing = particle_spacing(exp)
+size = sim_cfg["domain_size"]
+particles = mesh_particles(cfg["mesh"], cfg["height"], tuple(cfg["position"] or (size / 2, size / 2)), spacing)
+material = recovered_material(params["herschel_bulkley"])
+log.info("%s scaled to %.3g m: %d particles; simulating %g s with %s", cfg["mesh"], cfg["height"], len(particles),
+         sim_cfg["duration"], material)
+positions = simulate(simulator(exp, sim_cfg["resolution"], mat=material), particles, spacing, sim_cfg["duration"],
+                     sim_cfg["frames"])
+images = [render(camera, p, spacing)[0] for p in positions]
+fps = (len(images) - 1) / sim_cfg["duration"]
+write_atomic(smk.output.video, lambda path: imageio.mimwrite(path, images, format="FFMPEG", fps=max(fps, 1.0),
+                                                             macro_block_size=1, quality=8))
+picks = sorted({0, len(images) // 2, len(images) - 1})
+save_figure(contact_sheet({"bunny": [(f"t = {k / fps:.2f} s", images[k]) for k in picks]}), smk.output.strip)
+log.info("height %.3f m -> %.3f m", positions[0][:, 1].max(), positions[-1][:, 1].max())

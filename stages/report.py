@@ -1,0 +1,104 @@
+"""report: one self-contained HTML file (opens offline): parameter table, training plots, observed / initial-guess /
+learned frames and an animation per view, the flow curve with its band, the new-shape prediction, stage runtimes and
+the configuration."""
+
+import base64
+import csv
+import html
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from rheo.fit.inverse import build_problem, initial_guess, log_values, simulator_parameters
+from rheo.fit.observations import load
+from rheo.io import read_json, write_text_atomic
+from rheo.report.fit import (
+    SYMBOLS,
+    figure_tag,
+    flow_curve_figure,
+    focus_crop,
+    frames_figure,
+    gif_tag,
+    observed_crop,
+    render,
+    rendered_crop,
+    training_figure,
+)
+from rheo.stage import setup_logging
+
+smk = snakemake  # noqa: F821  (injected by Snakemake)
+log = setup_logging(smk.log[0])
+exp = smk.params.experiment
+params = read_json(smk.input.params)
+with open(smk.input.history) as f:
+    history = list(csv.DictReader(f))
+names = list(params["parameters"])
+truth = {k: p["truth"] for k, p in params["parameters"].items() if "truth" in p}
+sections = [("Training (warm-up, then every frame; dotted: the restart)",
+             figure_tag(training_figure(history, names, truth), "loss, learning rate and parameters per iteration"))]
+
+# observed, initial guess and learned, from the simulations of both parameter sets
+obs = load(smk.input.recordings, smk.input.matte, smk.input.cameras)
+problem = build_problem(exp, obs, smk.input.seed)
+seed = np.load(smk.input.seed)
+density, colour, spacing = seed["density"], seed["colour"], float(seed["spacing"])
+last = obs.frames - 1
+runs = {}
+with torch.no_grad():
+    for label, values, v0 in [("initial guess", initial_guess(exp), read_json(smk.input.velocity)["v0"]),
+                              ("learned", {k: p["value"] for k, p in params["parameters"].items()},
+                               params["initial_velocity"])]:
+        runs[label] = problem.simulate(log_values(values, names), torch.tensor(v0, dtype=torch.float64),
+                                       last).x.numpy()
+picks = sorted({0, last // 2, last})
+rows = []
+for view in obs.views[:2]:
+    crop = focus_crop(view)
+    for label in ("observed", "initial guess", "learned"):
+        panels = []
+        for k in picks:
+            image = observed_crop(view, k, crop) if label == "observed" else rendered_crop(
+                runs[label][k], density, colour, spacing, view, crop)
+            panels.append((f"t = {obs.times[k]:.2f} s", image))
+        rows.append((f"{view.name} {label}", panels))
+sections.append(("Observed, initial guess and learned", figure_tag(frames_figure(rows), "beginning, middle, end")))
+animations = []
+for view in obs.views:
+    crop = focus_crop(view)
+    frames = [np.concatenate([observed_crop(view, k, crop), rendered_crop(runs["learned"][k], density, colour,
+                                                                          spacing, view, crop)], axis=1)
+              for k in range(obs.frames)]
+    animations.append(gif_tag(frames, f"{view.name}: observed (left), learned (right)"))
+sections.append(("Every view, animated", "".join(animations)))
+
+# the flow curve, with a band from the parameters' covariance
+count = len(names)
+mean = log_values({k: p["value"] for k, p in params["parameters"].items()}, names).numpy()
+covariance = np.asarray(params["evidence"]["covariance_log"])
+rng = np.random.default_rng(0)
+draws = rng.multivariate_normal(mean, covariance, size=400, check_valid="ignore")
+density_value = params["herschel_bulkley"]["density"]
+samples = np.array([simulator_parameters(dict(zip(names, torch.exp(torch.as_tensor(d)), strict=True)),
+                                         params["convention"], density_value)[1:4].numpy() for d in draws])
+hb = params["herschel_bulkley"]
+true_hb = None
+if truth:
+    t = simulator_parameters({k: torch.tensor(float(v)) for k, v in truth.items()}, params["convention"],
+                             density_value)
+    true_hb = tuple(t[1:4].tolist())
+sections.append(("Flow curve", figure_tag(flow_curve_figure(hb["tau_y"], hb["K"], hb["n"], samples, true_hb),
+                                          "shear stress against shear rate, 95 % band")))
+strip = base64.b64encode(Path(smk.input.novel).read_bytes()).decode()
+sections.append(("Prediction on a new shape", f'<figure><img alt="novel shape" src="data:image/png;base64,{strip}">'
+                 f"<figcaption>{html.escape(exp['novel']['mesh'])} with the recovered material "
+                 f"(video: novel/bunny.mp4)</figcaption></figure>"))
+runtimes = []
+for path in smk.input.benchmarks:
+    with open(path) as f:
+        row = next(csv.DictReader(f, delimiter="\t"))
+    runtimes.append((Path(path).stem, float(row["s"])))
+runtimes.append(("total", sum(t for _, t in runtimes)))
+write_text_atomic(smk.output.report, render(exp["name"], params, sections, exp, runtimes))
+log.info("report: %s (%s)", smk.output.report, ", ".join(f"{SYMBOLS.get(k, k)} {p['value']:.4g}"
+                                                         for k, p in params["parameters"].items()))

@@ -1,0 +1,18 @@
+# novel: the recovered material on a new shape (the Stanford bunny), filmed by a calibrated camera.
+
+
+rule novel:
+    input:
+        params="results/{experiment}/fit/params.json",
+        cameras="results/{experiment}/calibration/cameras.json",
+    output:
+        video="results/{experiment}/novel/bunny.mp4",
+        strip="results/{experiment}/novel/bunny.png",
+    log:
+        "logs/{experiment}/novel.log",
+    benchmark:
+        "benchmarks/{experiment}/novel.tsv"
+    params:
+        experiment=lambda w: experiment(w.experiment),
+    script:
+        "../../stages/novel.py"
