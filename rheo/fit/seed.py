@@ -22,7 +22,7 @@ from rheo.render.field import VoxelGrid, march, render_particles
 logger = logging.getLogger(__name__)
 
 WHITE = torch.ones(3)
-OPAQUE = 2.0  # optical depth per particle spacing
+OPAQUE = 4.0  # optical depth per particle spacing (with rheo.render.field.COUNT_FLOOR: surfaces where volumes end)
 
 
 @dataclass
@@ -69,13 +69,15 @@ def visual_hull(obs: Observations, grid: VoxelGrid, frame: int = 0) -> np.ndarra
 
 
 def hull_grid(obs: Observations, domain_origin, domain_size: float, spacing: float, frame: int = 0) -> VoxelGrid:
-    """The grid of ``spacing`` around the visual hull (computed on a grid twice as coarse over the domain)."""
+    """The grid of ``spacing`` around the visual hull (computed on a grid twice as coarse over the domain), its nodes
+    half a spacing off the multiples of ``spacing``."""
     coarse = VoxelGrid(tuple(domain_origin), 2 * spacing, (int(np.ceil(domain_size / (2 * spacing))) + 1,) * 3)
     hull = visual_hull(obs, coarse, frame)
     if not hull.any():
         raise ValueError("the masks of the first frame have no common region inside the simulation domain: check "
                          "the cameras and masks")
-    return VoxelGrid.around(coarse.centres()[hull], spacing, pad=3)
+    # nodes at cell centres of the lattice through the origin: the lowest layer of particles then starts at the floor
+    return VoxelGrid.around(coarse.centres()[hull], spacing, pad=3, anchor=np.zeros(3))
 
 
 def _resample(field: torch.Tensor, source: VoxelGrid, target: VoxelGrid) -> torch.Tensor:
@@ -90,11 +92,13 @@ def _resample(field: torch.Tensor, source: VoxelGrid, target: VoxelGrid) -> torc
 
 def fit_radiance_field(obs: Observations, grid: VoxelGrid, occupancy: np.ndarray, *, levels: int = 3,
                        iterations: int = 150, rays_per_view: int = 1024, surface_weight: float = 0.01,
+                       mask_weight: float = 1.0,
                        learning_rate: float = 0.1, seed: int = 0,
                        progress: bool = True) -> tuple[torch.Tensor, torch.Tensor, list[float]]:
     """Density (nx, ny, nz) and colour (3, nx, ny, nz) on ``grid`` fitted to the first frame of every view, from a
-    grid 2**(levels-1) times coarser up to ``grid``; starts opaque inside ``occupancy`` (the visual hull). Returns
-    the fields and the loss per iteration."""
+    grid 2**(levels-1) times coarser up to ``grid``; starts opaque inside ``occupancy`` (the visual hull). The loss:
+    colours against the matted frames, opacity against the masks (``mask_weight``) and the surface regulariser
+    (``surface_weight``). Returns the fields and the loss per iteration."""
     rng = np.random.default_rng(seed)
     opaque = 4.0 / grid.spacing  # about 98 % opacity per voxel
     current = grid
@@ -117,10 +121,12 @@ def fit_radiance_field(obs: Observations, grid: VoxelGrid, occupancy: np.ndarray
         for _ in tqdm(range(iterations), desc=f"radiance field {shape}", disable=not progress):
             batch = sample_rays(obs, 0, rays_per_view, rng)
             density = F.softplus(raw[0]) * (opaque / 1.0)
-            rgb, _ = march(density, torch.sigmoid(raw[1:]), level_grid, batch.origins, batch.dirs, WHITE)
+            rgb, opacity = march(density, torch.sigmoid(raw[1:]), level_grid, batch.origins, batch.dirs, WHITE)
             alpha = 1.0 - torch.exp(-density * level_grid.spacing)
             surface = torch.clamp(alpha, 1e-4, 1e-1).mean()  # eq. 3.8, per voxel
-            loss = F.mse_loss(rgb, batch.colours) + surface_weight * surface
+            # the masks tell empty space from white material, which the matted colours alone cannot
+            loss = (F.mse_loss(rgb, batch.colours) + mask_weight * F.mse_loss(opacity, batch.masks)
+                    + surface_weight * surface)
             optimizer.zero_grad()
             loss.backward()
             optimizer.step()
@@ -139,13 +145,17 @@ def field_particles(density: torch.Tensor, colour: torch.Tensor, grid: VoxelGrid
                     min_piece: float = 0.05) -> Seed:
     """One particle at every node (above the floor) whose voxel the field makes more opaque than ``threshold``, or
     that such voxels enclose: images constrain the surface, not the inside, so cavities are filled (the floor closes
-    the material from below). Pieces smaller than ``min_piece`` of the largest are dropped."""
+    the material from below), in 3-D and in every horizontal slice. Pieces smaller than ``min_piece`` of the largest
+    are dropped."""
     alpha = (1.0 - torch.exp(-density * grid.spacing)).numpy()
     centres = grid.centres()
     above = centres[..., 1] > 0
     closed = (alpha > threshold) & above
     closed[:, :np.argmax(above, axis=1).min()] = True
-    keep = ndimage.binary_fill_holes(closed) & above
+    keep = ndimage.binary_fill_holes(closed)
+    # a cavity open to the outside somewhere escapes the 3-D filling; horizontal slices of a heap rarely have holes
+    keep |= np.stack([ndimage.binary_fill_holes(keep[:, j, :]) for j in range(keep.shape[1])], axis=1)
+    keep &= above
     labels, count = ndimage.label(keep)
     if count > 1:  # drop specks of opacity floating apart from the material
         sizes = ndimage.sum(keep, labels, index=np.arange(1, count + 1))
@@ -170,7 +180,7 @@ def silhouette_iou(obs: Observations, seed: Seed, frame: int = 0) -> dict[str, f
 
 
 def seed_from_field(obs: Observations, density: torch.Tensor, colour: torch.Tensor, grid: VoxelGrid,
-                    thresholds=(0.5, 0.4, 0.3, 0.2, 0.1)) -> tuple[Seed, float, dict[str, float]]:
+                    thresholds=(0.7, 0.5, 0.3, 0.2, 0.1, 0.05)) -> tuple[Seed, float, dict[str, float]]:
     """The particles of the opacity threshold whose silhouettes best match the first frame's masks (mean IoU over
     the views); returns them, the threshold and the IoU per view."""
     best = None
@@ -185,12 +195,13 @@ def seed_from_field(obs: Observations, density: torch.Tensor, colour: torch.Tens
 
 
 def proxy_particles(occupancy: np.ndarray, origin: np.ndarray, proxy_spacing: float, spacing: float) -> np.ndarray:
-    """The proxy's occupancy (voxel ``(i, j, k)`` spans ``origin + proxy_spacing * [i, i + 1)``) sampled at the
-    centres of a lattice of ``spacing``."""
+    """The proxy's occupancy (voxel ``(i, j, k)`` centred at ``origin + proxy_spacing * (i, j, k)``) sampled at the
+    centres of a lattice of ``spacing`` over the same box."""
+    corner = origin - 0.5 * proxy_spacing
     extent = np.asarray(occupancy.shape) * proxy_spacing
-    axes = [origin[a] + spacing / 2 + spacing * np.arange(int(np.floor(extent[a] / spacing))) for a in range(3)]
+    axes = [corner[a] + spacing / 2 + spacing * np.arange(int(np.floor(extent[a] / spacing))) for a in range(3)]
     points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    index = np.floor((points - origin) / proxy_spacing).astype(int)
+    index = np.floor((points - corner) / proxy_spacing).astype(int)
     index = np.clip(index, 0, np.asarray(occupancy.shape) - 1)
     return points[occupancy[index[:, 0], index[:, 1], index[:, 2]]]
 
