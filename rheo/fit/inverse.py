@@ -148,7 +148,7 @@ def run_phase(phase: Phase, variables: torch.Tensor, loss_fn: Callable[[torch.Te
         if not torch.isfinite(variables.grad).all():
             raise FloatingPointError(f"{phase.name}: the gradient at iteration {step} is not finite "
                                      f"({variables.grad.tolist()})")
-        row = {"phase": phase.name, "iteration": step, "loss": float(loss), "learning_rate": rate,
+        row = {"phase": phase.name, "iteration": step, "loss": loss.item(), "learning_rate": rate,
                **describe(variables.detach())}
         optimizer.step()
         history.append(row)

@@ -24,7 +24,10 @@ class Workflow:
 
 @pytest.fixture
 def workflow(tmp_path) -> Workflow:
+    root = tmp_path / "repo"
+    root.mkdir()
     for item in ("Snakefile", "workflow", "stages", "config"):
         src = REPO / item
-        (shutil.copytree if src.is_dir() else shutil.copy)(src, tmp_path / item)
-    return Workflow(tmp_path)
+        (shutil.copytree if src.is_dir() else shutil.copy)(src, root / item)
+    (tmp_path / "shared").symlink_to(REPO.parent / "shared")  # ../shared, as beside the repository
+    return Workflow(root)

@@ -1,0 +1,30 @@
+"""The whole pipeline on the tiny virtual experiment: recordings to report, in a scratch copy of the workflow."""
+
+import csv
+import json
+import re
+
+import imageio.v2 as imageio
+
+
+def test_tiny_report_end_to_end(workflow):
+    run = workflow.run("results/tiny/report.html")
+    assert run.returncode == 0, run.stderr[-3000:]
+    root = workflow.root / "results/tiny"
+    params = json.loads((root / "fit/params.json").read_text())
+    assert params["convention"] == "rheo" and list(params["parameters"]) == ["mu", "lam", "tau_y", "K", "n"]
+    for name, entry in params["parameters"].items():
+        low, high = entry["ci95"]
+        assert low <= entry["value"] <= high, name
+        assert isinstance(entry["determined"], bool) and "truth" in entry and "error" in entry, name
+    assert params["parameters"]["tau_y"]["initial"] == 10.0  # the configured guess, never the truth
+    with open(root / "fit/history.csv") as f:
+        history = list(csv.DictReader(f))
+    assert [h["phase"] for h in history] == ["warm-up"] * 4 + ["full"] * 4
+    assert {"loss", "learning_rate", "mu", "tau_y", "vx"} <= set(history[0])
+    assert not list(root.rglob("*.checkpoint"))  # finished stages leave no checkpoint behind
+    page = (root / "report.html").read_text()
+    assert len(re.findall(r'src="data:image/(png|gif);base64,', page)) >= 6  # tables, plots, frames, animations
+    assert "http://" not in page and "Stage runtimes" in page and "τ_y" in page
+    assert len(imageio.mimread(root / "novel/bunny.mp4")) == 4
+    assert "seed (radiance)" in (workflow.root / "logs/tiny/seed.log").read_text()
