@@ -64,12 +64,15 @@ if cfg["silhouette_refinement"]:
         mask = cv2.imread(str(Path(smk.input.matte) / name / "masks" / "000.png"), cv2.IMREAD_GRAYSCALE) > 127
         camera = Camera.from_record(record)
         before = iou(silhouette_mask(camera, points, spacing), mask)
+        board_pose = camera.c2w
         refined, info = refine_pose(camera, points, spacing, mask)
-        moved = float(np.linalg.norm(refined[:3, 3] - camera.c2w[:3, 3]))
+        moved = float(np.linalg.norm(refined[:3, 3] - board_pose[:3, 3]))
         camera.c2w = refined
         after = iou(silhouette_mask(camera, points, spacing), mask)
-        log.info("camera %s: silhouette refinement moved the pose by %.4f m, IoU %.3f -> %.3f", name, moved, before,
-                 after)
+        if after < before:  # the board's pose already agrees better with the mask: keep it
+            refined, after = board_pose, before
+        log.info("camera %s: silhouette refinement moved the pose by %.4f m, IoU %.3f -> %.3f%s", name, moved, before,
+                 after, "" if refined is not board_pose else " (no better: the board's pose is kept)")
         record.update(c2w=refined.tolist(), silhouette_iou_before=before, silhouette_iou_after=after,
                       silhouette_fit=info)
 

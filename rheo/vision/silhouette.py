@@ -14,6 +14,8 @@ from scipy.spatial import cKDTree
 
 from rheo.vision.cameras import Camera
 
+DISC = 0.6  # disc radius in particle spacings: a particle body's outline, no wider (as the lab renderer's splats)
+
 
 def _pose_to_c2w(params: np.ndarray) -> np.ndarray:
     R, _ = cv2.Rodrigues(params[:3])
@@ -38,7 +40,7 @@ def silhouette_residuals(camera: Camera, points: np.ndarray, spacing: float, out
     r_points = ndimage.map_coordinates(outside, [uv[:, 1], uv[:, 0]], order=1, mode="nearest")
     r_points = r_points + 10.0 * (depth <= 0)
     nearest, index = cKDTree(uv).query(edge_pixels[:, ::-1])
-    reach = spacing * cam.K[0, 0] / np.maximum(depth[index], 1e-6) + 0.5  # disc radius, pixel rounding
+    reach = DISC * spacing * cam.K[0, 0] / np.maximum(depth[index], 1e-6) + 0.5  # disc radius, pixel rounding
     r_edges = np.maximum(nearest - reach, 0.0)
     return np.r_[r_points / np.sqrt(len(r_points)), r_edges / np.sqrt(len(r_edges))]
 
@@ -66,9 +68,9 @@ def refine_pose(camera: Camera, points: np.ndarray, spacing: float, mask: np.nda
 
 
 def silhouette_mask(camera: Camera, points: np.ndarray, spacing: float) -> np.ndarray:
-    """The proxy's silhouette: its particles splatted as discs of their spacing, holes closed."""
+    """The proxy's silhouette: its particles splatted as discs, holes closed."""
     uv, depth = camera.project(points)
-    radius = np.maximum(spacing * camera.K[0, 0] / np.maximum(depth, 1e-6), 0.7)
+    radius = np.maximum(DISC * spacing * camera.K[0, 0] / np.maximum(depth, 1e-6), 0.7)
     mask = np.zeros((camera.height, camera.width), np.uint8)
     for (u, v), r in zip(uv, radius, strict=True):
         cv2.circle(mask, (round(u), round(v)), int(np.ceil(r)), 1, -1)
