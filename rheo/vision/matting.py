@@ -13,11 +13,11 @@ from scipy import ndimage
 
 @dataclass(frozen=True)
 class MatteSettings:
-    luminance_weight: float = 0.1  # weight of the Lab lightness difference (a shadow changes lightness only)
+    luminance_weight: float = 0.5  # weight of the Lab lightness difference (a shadow changes lightness only)
     threshold: float | None = None  # distance (Lab-like units); None: Otsu on the distance image
     min_threshold: float = 8.0  # never threshold below this (sensor noise)
-    open_px: int = 1
-    close_px: int = 2
+    open_px: int = 0
+    close_px: int = 1
     min_component_fraction: float = 0.05  # keep components at least this fraction of the largest
 
 
