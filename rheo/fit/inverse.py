@@ -17,16 +17,16 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
+from rheo.experiments.scene import material, simulator
 from rheo.fit.observations import Observations, sample_rays
 from rheo.io import write_atomic
 from rheo.physics import Simulator
 from rheo.physics.simulator import Trajectory
-from rheo.render.field import render_particles
+from rheo.render.field import WHITE, render_particles
 
 logger = logging.getLogger(__name__)
 
 PARAMETERS = {"pacnerf": ("mu", "lam", "sigma_y", "eta"), "rheo": ("mu", "lam", "tau_y", "K", "n")}
-WHITE = torch.ones(3)
 
 
 def simulator_parameters(values: dict[str, torch.Tensor], convention: str, density: float) -> torch.Tensor:
@@ -190,8 +190,6 @@ def initial_guess(exp: dict) -> dict[str, float]:
 
 def build_problem(exp: dict, obs: Observations, seed_file: str | Path, dtype=torch.float32) -> Problem:
     """The fit of experiment ``exp`` against ``obs``, from the seed particles in ``seed_file``."""
-    from rheo.experiments.scene import material, simulator
-
     seed = np.load(seed_file)
     start = material({**exp["material"], **initial_guess(exp)})  # never the truth, not even for the time step
     return Problem(simulator(exp, exp["simulation"]["resolution"], dtype=dtype, mat=start), obs,

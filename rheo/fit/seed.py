@@ -17,11 +17,10 @@ from scipy import ndimage
 from tqdm.auto import tqdm
 
 from rheo.fit.observations import Observations, sample_rays
-from rheo.render.field import VoxelGrid, march, render_particles
+from rheo.render.field import WHITE, VoxelGrid, march, render_particles
 
 logger = logging.getLogger(__name__)
 
-WHITE = torch.ones(3)
 OPAQUE = 4.0  # optical depth per particle spacing (with rheo.render.field.COUNT_FLOOR: surfaces where volumes end)
 
 

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from rheo.fit.inverse import WHITE, Problem
+from rheo.fit.inverse import Problem
 from rheo.fit.observations import sample_rays
-from rheo.render.field import render_particles
+from rheo.render.field import WHITE, render_particles
 
 Z95 = 1.959964
 # A parameter is determined when its 95 % interval spans less than this factor (low to high).

@@ -15,6 +15,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
+WHITE = torch.ones(3)  # the matted frames' background
 COUNT_FLOOR = 0.3  # calibrated: the true cup at 2 particles per cell renders its silhouette within 2 %
 
 
