@@ -18,7 +18,7 @@ log.info("simulating %s at %d^3 with %d^3 particles per cell for %g s", exp["nam
 truth = simulate_truth(exp)
 log.info("%d particles, dt = %.3g s; rendering %d cameras", truth["positions"].shape[1], truth["dt"],
          exp["cameras"]["count"])
-record = write_recordings(smk.output.recordings, exp, truth, board, seed=lab["seed"])
+record = write_recordings(smk.output.recordings, exp, truth, board, seed=lab["seed"], workers=smk.threads)
 m = material(exp["material"])
 write_json_atomic(smk.output.truth, {
     "experiment": exp["name"], "material": {"tau_y": m.tau_y, "K": m.K, "n": m.n, "mu": m.mu, "lam": m.lam,

@@ -9,6 +9,7 @@ board lying on the floor: the world frame) and, in the lab only, ``masks/NNN.png
 from __future__ import annotations
 
 import json
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -124,30 +125,38 @@ def _uint8(image: np.ndarray) -> np.ndarray:
     return (np.clip(image, 0, 255) + 0.5).astype(np.uint8)
 
 
-def write_recordings(out_dir: str | Path, exp: dict, truth: dict, board: LabBoard = LabBoard(), seed: int = 0,
-                     progress: bool = True) -> dict:
-    """Render every camera's frames, masks, clean plate and calibration images into ``out_dir`` (atomically: a
-    temporary folder moved into place). Returns the truth record for truth.json."""
+def _film_camera(cam_dir: Path, cam: Camera, truth: dict, board: LabBoard, fps: float, seed: list[int]) -> None:
+    """One camera's frames, true masks, video, clean plate, checkerboard images and floor-board image."""
     rng = np.random.default_rng(seed)
+    frames = []
+    for f, points in enumerate(truth["positions"]):
+        image, mask = _lab_view(cam, points, truth["spacing"])
+        image = _uint8(image + rng.normal(0.0, 255 * Scene.noise, image.shape))
+        _write_png(cam_dir / "frames" / f"{f:03d}.png", image)
+        _write_png(cam_dir / "masks" / f"{f:03d}.png", mask.astype(np.uint8) * 255)
+        frames.append(image)
+    imageio.mimwrite(cam_dir / "video.mp4", frames, fps=max(fps, 1.0), macro_block_size=1, quality=9)
+    _write_png(cam_dir / "clean_plate.png", _uint8(_lab_view(cam)[0]))
+    for i, pose in enumerate(board_poses(cam, board, rng)):
+        _write_png(cam_dir / "checkerboard" / f"{i:02d}.png", render_board_view(cam, board, pose, rng))
+    floor_board = FloorBoard(board.columns, board.rows, board.square, board.ground_origin)
+    _write_png(cam_dir / "ground_board.png", _uint8(_lab_view(cam, board=floor_board)[0]))
+
+
+def write_recordings(out_dir: str | Path, exp: dict, truth: dict, board: LabBoard = LabBoard(), seed: int = 0,
+                     progress: bool = True, workers: int = 1) -> dict:
+    """Render every camera's frames, masks, clean plate and calibration images into ``out_dir`` (atomically: a
+    temporary folder moved into place), ``workers`` cameras at a time (each camera its own random stream, so the
+    result does not depend on ``workers``). Returns the truth record for truth.json."""
     cams = cameras(exp)
     fps = (len(truth["times"]) - 1) / float(truth["times"][-1])
-    floor_board = FloorBoard(board.columns, board.rows, board.square, board.ground_origin)
 
     def write(tmp: Path) -> None:
-        for c, cam in enumerate(tqdm(cams, desc="render cameras", disable=not progress)):
-            cam_dir = tmp / f"cam{c:02d}"
-            frames = []
-            for f, points in enumerate(truth["positions"]):
-                image, mask = _lab_view(cam, points, truth["spacing"])
-                image = _uint8(image + rng.normal(0.0, 255 * Scene.noise, image.shape))
-                _write_png(cam_dir / "frames" / f"{f:03d}.png", image)
-                _write_png(cam_dir / "masks" / f"{f:03d}.png", mask.astype(np.uint8) * 255)
-                frames.append(image)
-            imageio.mimwrite(cam_dir / "video.mp4", frames, fps=max(fps, 1.0), macro_block_size=1, quality=9)
-            _write_png(cam_dir / "clean_plate.png", _uint8(_lab_view(cam)[0]))
-            for i, pose in enumerate(board_poses(cam, board, rng)):
-                _write_png(cam_dir / "checkerboard" / f"{i:02d}.png", render_board_view(cam, board, pose, rng))
-            _write_png(cam_dir / "ground_board.png", _uint8(_lab_view(cam, board=floor_board)[0]))
+        jobs = [(tmp / f"cam{c:02d}", cam, truth, board, fps, [seed, c]) for c, cam in enumerate(cams)]
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            done = [pool.submit(_film_camera, *job) for job in jobs]
+            for future in tqdm(as_completed(done), total=len(done), desc="render cameras", disable=not progress):
+                future.result()
         summary = {f"cam{c:02d}": {"frames": len(truth["times"]), "fps": fps, "source": "virtual lab"}
                    for c in range(len(cams))}
         (tmp / "recording.json").write_text(json.dumps(summary, indent=2))

@@ -13,6 +13,7 @@ rule synthesize:
         "logs/{experiment}/synthesize.log",
     benchmark:
         "benchmarks/{experiment}/synthesize.tsv"
+    threads: 2
     params:
         experiment=lambda w: virtual_experiment(w.experiment),
     script:
