@@ -171,16 +171,16 @@ def log_values(values: dict[str, float], names: Sequence[str]) -> torch.Tensor:
 def initial_guess(exp: dict) -> dict[str, float]:
     """The fit's starting values: the experiment's fit.initial_guess, else (real recordings) its material section;
     a virtual experiment's material is the truth, so there every value must be guessed."""
-    material = exp["material"]
+    section = exp["material"]
     guess = exp["fit"]["initial_guess"]
-    names = PARAMETERS[material["convention"]]
+    names = PARAMETERS[section["convention"]]
     if exp.get("kind") == "virtual":
-        missing = [name for name in names if name not in guess and not (name == "n" and "n" not in material)]
+        missing = [name for name in names if name not in guess and not (name == "n" and "n" not in section)]
         if missing:
             raise ValueError(f"experiment {exp['name']}: a virtual experiment's material is the truth; give "
                              f"fit.initial_guess for {', '.join(missing)}")
-        material = {}
-    values = {name: guess.get(name, material.get(name, 1.0 if name == "n" else None)) for name in names}
+        section = {}
+    values = {name: guess.get(name, section.get(name, 1.0 if name == "n" else None)) for name in names}
     missing = [name for name, value in values.items() if value is None]
     if missing:
         raise ValueError(f"experiment {exp['name']}: no initial value for {', '.join(missing)} (fit.initial_guess "

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import torch
 
-from rheo.fit.inverse import Phase, cosine_rate, run_phase, simulator_parameters
+from rheo.fit.inverse import Phase, cosine_rate, initial_guess, run_phase, simulator_parameters
 
 TARGET = torch.tensor([1.5, -0.7], dtype=torch.float64)
 
@@ -65,3 +65,13 @@ def test_pacnerf_convention_maps_to_shear_yield_stress_and_consistency():
     rheo = simulator_parameters({"mu": torch.tensor(1.0), "lam": torch.tensor(2.0), "tau_y": torch.tensor(3.0),
                                  "K": torch.tensor(4.0), "n": torch.tensor(0.5)}, "rheo", 1200.0).numpy()
     np.testing.assert_allclose(rheo, [1200.0, 3.0, 4.0, 0.5, 1.0, 2.0])
+
+
+def test_a_virtual_experiment_never_starts_from_its_truth():
+    material = {"convention": "pacnerf", "mu": 1000.0, "lam": 1000.0, "sigma_y": 50.0, "eta": 1.0}
+    virtual = {"name": "v", "kind": "virtual", "material": material,
+               "fit": {"initial_guess": {"mu": 100.0, "lam": 1e4, "sigma_y": 10.0}}}
+    with pytest.raises(ValueError, match=r"material is the truth; give fit\.initial_guess for eta"):
+        initial_guess(virtual)
+    real = {**virtual, "kind": "real"}  # a recording's material section is the user's starting guess
+    assert initial_guess(real) == {"mu": 100.0, "lam": 1e4, "sigma_y": 10.0, "eta": 1.0}
