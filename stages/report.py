@@ -77,7 +77,8 @@ count = len(names)
 mean = log_values({k: p["value"] for k, p in params["parameters"].items()}, names).numpy()
 covariance = np.asarray(params["evidence"]["covariance_log"])
 rng = np.random.default_rng(0)
-draws = rng.multivariate_normal(mean, covariance, size=400, check_valid="ignore")
+# an undetermined parameter's variance is huge: draws beyond a factor e^4 (about 55) of the value are clipped there
+draws = np.clip(rng.multivariate_normal(mean, covariance, size=400, check_valid="ignore"), mean - 4.0, mean + 4.0)
 density_value = params["herschel_bulkley"]["density"]
 samples = np.array([simulator_parameters(dict(zip(names, torch.exp(torch.as_tensor(d)), strict=True)),
                                          params["convention"], density_value)[1:4].numpy() for d in draws])
@@ -88,7 +89,8 @@ if truth:
                              density_value)
     true_hb = tuple(t[1:4].tolist())
 sections.append(("Flow curve", figure_tag(flow_curve_figure(hb["tau_y"], hb["K"], hb["n"], samples, true_hb),
-                                          "shear stress against shear rate, 95 % band")))
+                                          "shear stress against shear rate, 95 % band (each parameter "
+                                          "within a factor 55 of its value)")))
 strip = base64.b64encode(Path(smk.input.novel).read_bytes()).decode()
 sections.append(("Prediction on a new shape", f'<figure><img alt="novel shape" src="data:image/png;base64,{strip}">'
                  f"<figcaption>{html.escape(exp['novel']['mesh'])} with the recovered material "
