@@ -2,9 +2,7 @@
 learned frames and an animation per view, the flow curve with its band, the new-shape prediction, stage runtimes and
 the configuration."""
 
-import base64
 import csv
-import html
 from pathlib import Path
 
 import numpy as np
@@ -15,7 +13,6 @@ from rheo.fit.observations import load
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import (
     SYMBOLS,
-    figure_tag,
     flow_curve_figure,
     focus_crop,
     frames_figure,
@@ -25,6 +22,7 @@ from rheo.report.fit import (
     rendered_crop,
     training_figure,
 )
+from rheo.report.html import figure_tag, image_tag
 from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -91,10 +89,9 @@ if truth:
 sections.append(("Flow curve", figure_tag(flow_curve_figure(hb["tau_y"], hb["K"], hb["n"], samples, true_hb),
                                           "shear stress against shear rate, 95 % band (each parameter "
                                           "within a factor 55 of its value)")))
-strip = base64.b64encode(Path(smk.input.novel).read_bytes()).decode()
-sections.append(("Prediction on a new shape", f'<figure><img alt="novel shape" src="data:image/png;base64,{strip}">'
-                 f"<figcaption>{html.escape(exp['novel']['mesh'])} with the recovered material "
-                 f"(video: novel/bunny.mp4)</figcaption></figure>"))
+sections.append(("Prediction on a new shape", image_tag(Path(smk.input.novel).read_bytes(), "png",
+                                                       f"{exp['novel']['mesh']} with the recovered material "
+                                                       "(video: novel/bunny.mp4)")))
 runtimes = []
 for path in smk.input.benchmarks:
     with open(path) as f:

@@ -2,8 +2,8 @@
 the first frame of every camera, or (one camera) from the proxy's geometry coloured from the view."""
 
 import numpy as np
-from scipy import ndimage
 
+from rheo.experiments.scene import particle_spacing
 from rheo.fit.observations import load
 from rheo.fit.seed import (
     Seed,
@@ -17,14 +17,14 @@ from rheo.fit.seed import (
     visual_hull,
 )
 from rheo.io import read_json, write_atomic, write_json_atomic
-from rheo.render.field import render_view
 from rheo.report.figures import contact_sheet, save_figure
+from rheo.report.fit import focus_crop, observed_crop, rendered_crop
 from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
 settings, simulation = smk.params.settings, smk.params.simulation
-spacing = simulation["domain_size"] / simulation["resolution"] / 2
+spacing = particle_spacing(simulation)
 obs = load(smk.input.recordings, smk.input.matte, smk.input.cameras, frames=1)
 method = settings["method"] if settings["method"] != "auto" else ("radiance" if len(obs.views) > 1 else "proxy")
 summary = {"method": method, "spacing": spacing}
@@ -62,10 +62,8 @@ write_json_atomic(smk.output.summary, summary)
 
 rows = {}
 for view in obs.views[:4]:
-    cam = view.camera
-    rgb, _ = render_view(seed.positions, seed.density, seed.colour, spacing, view.origin, view.dirs)
-    rows_, cols = np.nonzero(ndimage.binary_dilation(view.masks[0].reshape(cam.height, cam.width), iterations=20))
-    crop = np.s_[rows_.min():rows_.max() + 1, cols.min():cols.max() + 1]
-    rows[view.name] = [("first frame, matted", view.images[0].reshape(cam.height, cam.width, 3)[crop]),
-                       (f"seed, IoU {scores[view.name]:.3f}", rgb.reshape(cam.height, cam.width, 3)[crop])]
+    crop = focus_crop(view, margin=20)
+    rows[view.name] = [("first frame, matted", observed_crop(view, 0, crop)),
+                       (f"seed, IoU {scores[view.name]:.3f}",
+                        rendered_crop(seed.positions, seed.density, seed.colour, spacing, view, crop))]
 save_figure(contact_sheet(rows), smk.output.figure)

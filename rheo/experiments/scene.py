@@ -27,7 +27,7 @@ def simulator(exp: dict, resolution: int, dtype=torch.float32, mat: HerschelBulk
                      gravity=sim_cfg["gravity"])
 
 
-def particle_spacing(exp: dict, resolution: int | None = None) -> float:
-    """Particle spacing of a simulation at ``resolution`` (the fit's by default): two particles per cell and axis."""
-    sim_cfg = exp["simulation"]
-    return sim_cfg["domain_size"] / (resolution or sim_cfg["resolution"]) / 2
+def particle_spacing(simulation: dict) -> float:
+    """Particle spacing of the fit's simulation (an experiment's simulation section): two particles per cell and
+    axis."""
+    return simulation["domain_size"] / simulation["resolution"] / 2

@@ -49,10 +49,7 @@ def _inside_views(obs: Observations, points: np.ndarray, frame: int) -> np.ndarr
     seen = np.zeros(len(points), bool)
     for view in obs.views:
         cam = view.camera
-        uv, depth = cam.project(points)
-        pixel = np.round(uv).astype(int)
-        visible = (depth > 0) & (pixel[:, 0] >= 0) & (pixel[:, 0] < cam.width) & (pixel[:, 1] >= 0) & (
-            pixel[:, 1] < cam.height)
+        pixel, visible = cam.pixels(points)
         mask = view.masks[frame].reshape(cam.height, cam.width)
         hit = np.zeros(len(points), bool)
         hit[visible] = mask[pixel[visible, 1], pixel[visible, 0]]
@@ -214,10 +211,7 @@ def colour_from_view(obs: Observations, points: np.ndarray, frame: int = 0) -> n
     mask = view.masks[frame].reshape(cam.height, cam.width)
     if not mask.any():
         raise ValueError(f"camera {view.name}: the first frame's mask is empty")
-    uv, depth = cam.project(points)
-    pixel = np.round(uv).astype(int)
-    inside = (depth > 0) & (pixel[:, 0] >= 0) & (pixel[:, 0] < cam.width) & (pixel[:, 1] >= 0) & (
-        pixel[:, 1] < cam.height)
+    pixel, inside = cam.pixels(points)
     on_material = np.zeros(len(points), bool)
     on_material[inside] = mask[pixel[inside, 1], pixel[inside, 0]]
     colours = np.broadcast_to(image[mask].mean(axis=0), (len(points), 3)).copy()

@@ -16,8 +16,6 @@ import numpy as np
 import torch
 
 from rheo.fit.inverse import Problem
-from rheo.fit.observations import sample_rays
-from rheo.render.field import WHITE, render_particles
 
 Z95 = 1.959964
 # A parameter is determined when its 95 % interval spans less than this factor (low to high).
@@ -43,11 +41,7 @@ def residuals(problem: Problem, log_values: torch.Tensor, v0: torch.Tensor, fram
         trajectory = problem.simulate(log_values, v0, frames)
         out = []
         for k in range(1, frames + 1):
-            batch = sample_rays(problem.obs, k, rays_per_view, np.random.default_rng(seed + k))
-            colour = None if problem.silhouette else problem.colour
-            rgb, opacity = render_particles(trajectory.x[k].float(), problem.density, colour, problem.spacing,
-                                            batch.origins, batch.dirs, WHITE, anchor=problem.anchor)
-            r = (opacity - batch.masks) if problem.silhouette else (rgb - batch.colours)
+            r = problem.frame_residual(trajectory.x[k], k, rays_per_view, np.random.default_rng(seed + k))
             out.append(r.reshape(len(problem.obs.views), -1).numpy())
     return np.asarray(out, dtype=np.float64)
 

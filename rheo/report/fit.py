@@ -3,7 +3,6 @@ learned frames, animations per view, the recovered flow curve with its band, sta
 
 from __future__ import annotations
 
-import base64
 import html
 import io
 import json
@@ -16,7 +15,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from rheo.report.html import figure_tag, page, table_tag
+from rheo.report.html import image_tag, page, table_tag
 
 SYMBOLS = {"mu": "μ", "lam": "λ", "sigma_y": "σ_y", "eta": "η", "tau_y": "τ_y", "K": "K", "n": "n"}
 
@@ -87,9 +86,7 @@ def gif_tag(frames: list[np.ndarray], caption: str, fps: float = 6.0) -> str:
     buf = io.BytesIO()
     imageio.mimwrite(buf, [(np.clip(f, 0, 1) * 255).astype(np.uint8) for f in frames], format="GIF",
                      duration=1.0 / fps, loop=0)
-    data = base64.b64encode(buf.getvalue()).decode()
-    return (f'<figure><img alt="{html.escape(caption)}" src="data:image/gif;base64,{data}">'
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+    return image_tag(buf.getvalue(), "gif", caption)
 
 
 def parameter_rows(params: dict) -> tuple[list[str], list[list[str]], list[str]]:
@@ -127,8 +124,6 @@ def render(name: str, params: dict, sections: list[tuple[str, str]], config: dic
     body.append("<h2>Configuration</h2><pre>" + html.escape(json.dumps(config, indent=2)) + "</pre>")
     return page(f"rheo: {name}", "".join(body))
 
-
-__all__ = ["figure_tag", "flow_curve_figure", "frames_figure", "gif_tag", "render", "training_figure"]
 
 
 def focus_crop(view, frames: slice = slice(None), margin: int = 16) -> tuple[slice, slice]:

@@ -16,13 +16,18 @@ table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:
 th{background:#f3f3f3}.bad{color:#b00}.good{color:#070}figure{display:inline-block;margin:0 1em 1em 0}"""
 
 
+def image_tag(data: bytes, mime: str, caption: str) -> str:
+    """An inline image (``mime``: png, gif) with its caption."""
+    encoded = base64.b64encode(data).decode()
+    return (f'<figure><img alt="{html.escape(caption)}" src="data:image/{mime};base64,{encoded}">'
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+
 def figure_tag(fig, caption: str) -> str:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
     plt.close(fig)
-    data = base64.b64encode(buf.getvalue()).decode()
-    return (f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+    return image_tag(buf.getvalue(), "png", caption)
 
 
 def table_tag(header: list[str], rows: list[list[str]], row_classes: list[str] | None = None) -> str:

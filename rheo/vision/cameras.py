@@ -29,6 +29,15 @@ class Camera:
         uv, _ = cv2.projectPoints(points.astype(np.float64), rvec, w2c[:3, 3], self.K, self.dist)
         return uv.reshape(-1, 2), cam[:, 2]
 
+    def pixels(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The pixel (column, row) each world point falls in, (N, 2) int, and whether it is in front of the camera
+        and inside the image."""
+        uv, depth = self.project(points)
+        pixel = np.round(uv).astype(int)
+        inside = (depth > 0) & (pixel[:, 0] >= 0) & (pixel[:, 0] < self.width) & (pixel[:, 1] >= 0) & (
+            pixel[:, 1] < self.height)
+        return pixel, inside
+
     def pixel_rays(self) -> tuple[np.ndarray, np.ndarray]:
         """World-space origin (3,) and unit directions (H, W, 3) through every pixel centre (distortion undone).
         As in OpenCV, pixel (i, j) has its centre at (u, v) = (j, i)."""

@@ -12,9 +12,10 @@ from scipy import ndimage
 from scipy.optimize import least_squares
 from scipy.spatial import cKDTree
 
+from rheo.render.lab import Scene
 from rheo.vision.cameras import Camera
 
-DISC = 0.6  # disc radius in particle spacings: a particle body's outline, no wider (as the lab renderer's splats)
+DISC = Scene.splat_radius  # disc radius in particle spacings: a particle body's outline, as the lab's splats
 
 
 def _pose_to_c2w(params: np.ndarray) -> np.ndarray:
