@@ -1,19 +1,20 @@
-"""fit: the constitutive parameters, in two phases (thesis Appendix A): a warm-up on the first frames, then every frame
-with the learning rate restarted. Adam on the log-parameters with cosine annealing; every iteration recorded and
-checkpointed, so an interrupted fit resumes where it stopped. The full phase adds 95 % intervals (Laplace,
-cluster-robust) and writes params.json and history.csv."""
+"""fit: the constitutive parameters on whole-frame silhouettes (rheo.fit.search), in two phases: a warm-up that surveys
+a wide box of log-parameters on the first frames, then a simplex search on every frame from the survey's best point,
+intervals from the loss' curvature, and parameters the recording does not determine held at their initial guess.
+Every evaluation is stored, so an interrupted fit replays them and goes on. The full phase writes params.json and
+history.csv."""
 
 import csv
-import math
 from pathlib import Path
 
 import numpy as np
 import torch
+from tqdm.auto import tqdm
 
 from rheo.experiments.scene import material
-from rheo.fit.inverse import Phase, build_problem, initial_guess, log_values, run_phase
+from rheo.fit.inverse import build_problem, initial_guess, log_values
 from rheo.fit.observations import load
-from rheo.fit.uncertainty import laplace_intervals
+from rheo.fit.search import EvaluationLog, SilhouetteTarget, estimate, survey
 from rheo.io import read_json, write_atomic, write_json_atomic
 from rheo.stage import inputs_key, setup_logging
 
@@ -25,61 +26,73 @@ warmup = phase_name == "warmup"
 frames = settings["warmup"]["frames"] + 1 if warmup else None
 obs = load(smk.input.recordings, smk.input.matte, smk.input.cameras, frames=frames)
 problem = build_problem(exp, obs, smk.input.seed)
-# the fitted variables: the log-parameters, then the initial velocity (refined jointly from the velocity stage's
-# estimate) in units of VELOCITY_SCALE, so that one Adam step moves it by a fraction of that
-VELOCITY_SCALE = 0.5  # m/s
-count = len(problem.names)
-if warmup:
-    v0 = torch.tensor(read_json(smk.input.velocity)["v0"], dtype=torch.float64)
-    start = torch.cat([log_values(initial_guess(exp), problem.names), v0 / VELOCITY_SCALE])
-    phase = Phase("warm-up", obs.frames - 1, settings["warmup"]["iterations"], settings["warmup"]["learning_rate"])
-else:
-    start = torch.tensor(read_json(smk.input.warmup)["variables"], dtype=torch.float64)
-    phase = Phase("full", obs.frames - 1, settings["full"]["iterations"], settings["full"]["learning_rate"])
+names = problem.names
+target = SilhouetteTarget(obs, obs.frames - 1)
+v0 = torch.tensor(read_json(smk.input.velocity)["v0"], dtype=torch.float64)
+guess = log_values(initial_guess(exp), names).numpy()
+half_width = np.log(settings["warmup"]["box"])
+box = (guess - half_width, guess + half_width)
 output = Path(smk.output[0])
-checkpoint = output.with_suffix(".checkpoint")
-key = inputs_key([exp, phase_name], [smk.input.seed, smk.input.cameras, smk.input.velocity,
-                                     *([] if warmup else [smk.input.warmup])])
+evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
+                            inputs_key([exp, phase_name], [smk.input.seed, smk.input.cameras, smk.input.velocity,
+                                                           *([] if warmup else [smk.input.warmup])]))
+bar = tqdm(desc=phase_name, unit="evaluation", total=settings["warmup"]["samples"] if warmup else None)
 
 
-def loss(variables: torch.Tensor, frame_count: int, rng: np.random.Generator) -> torch.Tensor:
-    return problem.loss(variables[:count], VELOCITY_SCALE * variables[count:], frame_count,
-                        settings["rays_per_view"], rng)
+def loss(x: np.ndarray) -> float:
+    with torch.no_grad():
+        trajectory = problem.simulate(torch.as_tensor(x), v0, target.frames)
+    return float(target.distances(trajectory.x.numpy(), problem.spacing).mean())
 
 
-def describe(variables: torch.Tensor) -> dict[str, float]:
-    velocity = (VELOCITY_SCALE * variables[count:]).tolist()
-    return {**dict(zip(problem.names, torch.exp(variables[:count]).tolist(), strict=True)),
-            **dict(zip(("vx", "vy", "vz"), velocity, strict=True))}
+def evaluate(x: np.ndarray, phase: str) -> float:
+    value = evaluations.evaluate(loss, x, phase)
+    bar.update()
+    log.info("%s %d: loss %.5g px, %s", phase, bar.n, value,
+             ", ".join(f"{n} {v:.4g}" for n, v in zip(names, np.exp(x), strict=True)))
+    return value
 
 
-fitted, history = run_phase(phase, start, loss, describe, checkpoint, key)
-values = describe(fitted)
-log.info("%s: %s", phase.name, ", ".join(f"{k} = {v:.4g}" for k, v in values.items()))
+def history_rows(records: list[dict]) -> list[dict]:
+    best = np.inf
+    rows = []
+    for i, record in enumerate(records):
+        best = min(best, record["loss"])
+        rows.append({"phase": record["phase"], "evaluation": i, "loss": record["loss"], "best_loss": best,
+                     **dict(zip(names, np.exp(record["x"]).tolist(), strict=True))})
+    return rows
+
+
 if warmup:
-    write_json_atomic(smk.output.warmup, {"values": values, "variables": fitted.tolist(), "history": history})
+    x, value = survey(evaluate, guess, half_width, settings["warmup"]["samples"])
+    log.info("warm-up: best of %d survey points, loss %.5g px: %s", settings["warmup"]["samples"], value,
+             ", ".join(f"{n} {v:.4g}" for n, v in zip(names, np.exp(x), strict=True)))
+    write_json_atomic(smk.output.warmup, {"values": dict(zip(names, np.exp(x).tolist(), strict=True)),
+                                          "log_values": x.tolist(), "loss": value,
+                                          "history": history_rows(evaluations.records)})
 else:
-    v0 = VELOCITY_SCALE * fitted[count:]
-    intervals, evidence = laplace_intervals(problem, fitted[:count], v0, obs.frames - 1, settings["rays_per_view"])
+    start = np.asarray(read_json(smk.input.warmup)["log_values"])
+    result = estimate(evaluate, start, guess, names, evaluations=settings["full"]["evaluations"],
+                      step=settings["full"]["step"], design_step=settings["design_step"],
+                      tolerance=settings["tolerance"], box=box)
     truth = read_json(smk.input.truth)["material"]["as_configured"] if hasattr(smk.input, "truth") else {}
-    guess = initial_guess(exp)
     params = {}
-    for name, interval in intervals.items():
+    for name, interval in result.intervals.items():
         entry = {"value": interval.value, "ci95": [interval.low, interval.high], "determined": interval.determined,
-                 "initial": guess[name]}
+                 "held_at_initial_guess": name in result.held, "initial": float(np.exp(guess[names.index(name)]))}
         if name in truth:
             entry.update(truth=truth[name], error=interval.value / truth[name] - 1.0)
         params[name] = entry
         log.info("%s = %.4g, 95%% interval [%.4g, %.4g]%s%s", name, interval.value, interval.low, interval.high,
-                 "" if interval.determined else " (not determined by the recording)",
+                 "" if interval.determined else " (not determined by the recording: held at the initial guess)",
                  f", truth {truth[name]:.4g} ({entry['error']:+.1%})" if name in truth else "")
-    hb = material({**exp["material"], **{k: values[k] for k in problem.names}})
+    hb = material({**exp["material"], **{n: p["value"] for n, p in params.items()}})
     write_json_atomic(smk.output.params, {
-        "convention": exp["material"]["convention"], "parameters": params, "evidence": evidence,
-        "herschel_bulkley": {"tau_y": hb.tau_y, "K": hb.K, "n": hb.n, "mu": hb.mu, "lam": hb.lam,
-                             "density": hb.density},
-        "initial_velocity": v0.tolist(), "final_loss": history[-1]["loss"] if history else math.nan})
-    rows = read_json(smk.input.warmup)["history"] + history
+        "convention": exp["material"]["convention"], "parameters": params, "evidence": result.evidence,
+        "tolerance": settings["tolerance"], "herschel_bulkley": {"tau_y": hb.tau_y, "K": hb.K, "n": hb.n,
+                                                                 "mu": hb.mu, "lam": hb.lam, "density": hb.density},
+        "initial_velocity": v0.tolist(), "final_loss": result.loss, "loss_units": "px"})
+    rows = read_json(smk.input.warmup)["history"] + history_rows(evaluations.records)
 
     def write_history(path: Path) -> None:
         with open(path, "w", newline="") as f:
@@ -88,4 +101,5 @@ else:
             writer.writerows(rows)
 
     write_atomic(smk.output.history, write_history)
-checkpoint.unlink(missing_ok=True)
+bar.close()
+evaluations.path.unlink(missing_ok=True)

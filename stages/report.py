@@ -33,8 +33,8 @@ with open(smk.input.history) as f:
     history = list(csv.DictReader(f))
 names = list(params["parameters"])
 truth = {k: p["truth"] for k, p in params["parameters"].items() if "truth" in p}
-sections = [("Training (warm-up, then every frame; dotted: the restart)",
-             figure_tag(training_figure(history, names, truth), "loss, learning rate and parameters per iteration"))]
+sections = [("Training (warm-up survey on the first frames, then every frame; dotted: phase changes)",
+             figure_tag(training_figure(history, names, truth), "loss, search step and parameters per evaluation"))]
 
 # observed, initial guess and learned, from the simulations of both parameter sets
 obs = load(smk.input.recordings, smk.input.matte, smk.input.cameras)

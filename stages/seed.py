@@ -3,7 +3,7 @@ the first frame of every camera, or (one camera) from the proxy's geometry colou
 
 import numpy as np
 
-from rheo.experiments.scene import particle_spacing
+from rheo.experiments.scene import particle_spacing, start_bounds
 from rheo.fit.observations import load
 from rheo.fit.seed import (
     Seed,
@@ -25,11 +25,12 @@ smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
 settings, simulation = smk.params.settings, smk.params.simulation
 spacing = particle_spacing(simulation)
+bounds = start_bounds(simulation)
 obs = load(smk.input.recordings, smk.input.matte, smk.input.cameras, frames=1)
 method = settings["method"] if settings["method"] != "auto" else ("radiance" if len(obs.views) > 1 else "proxy")
 summary = {"method": method, "spacing": spacing}
 if method == "radiance":
-    grid = hull_grid(obs, (0.0, 0.0, 0.0), simulation["domain_size"], spacing)
+    grid = hull_grid(obs, bounds, spacing)
     hull = visual_hull(obs, grid)
     log.info("visual hull of %d views: %d voxels of %.4g m (%.4g m^3), grid %s", len(obs.views), hull.sum(), spacing,
              hull.sum() * spacing**3, grid.shape)
@@ -47,6 +48,11 @@ else:
     seed = Seed(positions, np.full(len(positions), opaque_density(spacing)), colour_from_view(obs, positions),
                 spacing)
     scores = silhouette_iou(obs, seed)
+inside = ((seed.positions >= bounds[0]) & (seed.positions <= bounds[1])).all(axis=1)
+if not inside.all():
+    log.warning("%d seed particles lie outside the box particles may start in (%s to %s m): dropped",
+                int((~inside).sum()), np.round(bounds[0], 4).tolist(), np.round(bounds[1], 4).tolist())
+    seed = Seed(seed.positions[inside], seed.density[inside], seed.colour[inside], spacing)
 summary.update(particles=len(seed.positions), volume=seed.volume, silhouette_iou=scores,
                mean_silhouette_iou=float(np.mean(list(scores.values()))))
 if hasattr(smk.input, "truth"):

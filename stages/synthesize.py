@@ -14,7 +14,7 @@ exp = smk.params.experiment
 lab = exp["lab"]
 board = LabBoard(**lab["board"], views=lab["views"], ground_origin=tuple(lab["ground_origin"]))
 log.info("simulating %s at %d^3 with %d^3 particles per cell for %g s", exp["name"],
-         exp["simulation"]["resolution"], exp["simulation"]["lab_particles_per_cell"], exp["simulation"]["duration"])
+         exp["simulation"]["resolution"], exp["simulation"]["particles_per_cell"], exp["simulation"]["duration"])
 truth = simulate_truth(exp)
 log.info("%d particles, dt = %.3g s; rendering %d cameras", truth["positions"].shape[1], truth["dt"],
          exp["cameras"]["count"])
@@ -23,7 +23,7 @@ m = material(exp["material"])
 write_json_atomic(smk.output.truth, {
     "experiment": exp["name"], "material": {"tau_y": m.tau_y, "K": m.K, "n": m.n, "mu": m.mu, "lam": m.lam,
                                             "density": m.density, "as_configured": exp["material"]},
-    "resolution": exp["simulation"]["resolution"], "particles_per_cell": exp["simulation"]["lab_particles_per_cell"],
+    "resolution": exp["simulation"]["resolution"], "particles_per_cell": exp["simulation"]["particles_per_cell"],
     "particles": int(truth["positions"].shape[1]),
     "particle_spacing": truth["spacing"], "dt": truth["dt"],
     "masks": "coverage of the material's splats, rendered at twice the resolution and averaged", **record})

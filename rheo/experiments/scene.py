@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import numpy as np
 import torch
 
 from rheo.physics import Floor, HerschelBulkley, Simulator, kernels
+from rheo.physics.simulator import particle_bounds
 
 
 def material(cfg: dict) -> HerschelBulkley:
@@ -20,14 +22,22 @@ def simulator(exp: dict, resolution: int, dtype=torch.float32, mat: HerschelBulk
     grid cells below it in the domain."""
     sim_cfg = exp["simulation"]
     size = sim_cfg["domain_size"]
-    dx = size / resolution
     return Simulator(material(exp["material"]) if mat is None else mat, resolution=resolution, domain_size=size,
-                     domain_origin=(0.0, -kernels.BOUND * dx, 0.0), dtype=dtype,
+                     domain_origin=_domain_origin(size / resolution), dtype=dtype,
                      colliders=[Floor(height=0.0, contact=sim_cfg["floor"], friction=sim_cfg["floor_friction"])],
                      gravity=sim_cfg["gravity"])
 
 
+def _domain_origin(dx: float) -> tuple[float, float, float]:
+    return (0.0, -kernels.BOUND * dx, 0.0)
+
+
+def start_bounds(simulation: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The box (low, high corners) particles may start in, for an experiment's simulation section."""
+    dx = simulation["domain_size"] / simulation["resolution"]
+    return particle_bounds(_domain_origin(dx), simulation["domain_size"], dx)
+
+
 def particle_spacing(simulation: dict) -> float:
-    """Particle spacing of the fit's simulation (an experiment's simulation section): two particles per cell and
-    axis."""
-    return simulation["domain_size"] / simulation["resolution"] / 2
+    """Particle spacing of an experiment's simulation section: ``particles_per_cell`` per cell and axis."""
+    return simulation["domain_size"] / simulation["resolution"] / simulation["particles_per_cell"]

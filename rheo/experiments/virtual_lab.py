@@ -41,7 +41,7 @@ def simulate_truth(exp: dict, progress: bool = True) -> dict:
     """Particle positions at every recorded frame, simulated with the lab's particles per cell."""
     sim_cfg = exp["simulation"]
     sim = simulator(exp, sim_cfg["resolution"])
-    spacing = sim.dx / sim_cfg["lab_particles_per_cell"]
+    spacing = sim.dx / sim_cfg["particles_per_cell"]
     mesh, _ = from_config(exp["proxy"])
     particles = torch.as_tensor(voxelize(mesh, spacing).particles, dtype=torch.float32)
     frames = sim_cfg["frames"] - 1

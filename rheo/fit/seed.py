@@ -64,16 +64,20 @@ def visual_hull(obs: Observations, grid: VoxelGrid, frame: int = 0) -> np.ndarra
     return (_inside_views(obs, centres, frame) & (centres[:, 1] >= 0)).reshape(grid.shape)
 
 
-def hull_grid(obs: Observations, domain_origin, domain_size: float, spacing: float, frame: int = 0) -> VoxelGrid:
-    """The grid of ``spacing`` around the visual hull (computed on a grid twice as coarse over the domain), its nodes
-    half a spacing off the multiples of ``spacing``."""
-    coarse = VoxelGrid(tuple(domain_origin), 2 * spacing, (int(np.ceil(domain_size / (2 * spacing))) + 1,) * 3)
+def hull_grid(obs: Observations, bounds: tuple[np.ndarray, np.ndarray], spacing: float,
+              frame: int = 0) -> VoxelGrid:
+    """The grid of ``spacing`` around the visual hull within ``bounds`` (the box particles may start in; the hull
+    computed on a grid twice as coarse), its nodes half a spacing off the multiples of ``spacing``."""
+    lo, hi = np.asarray(bounds[0], dtype=float), np.asarray(bounds[1], dtype=float)
+    coarse = VoxelGrid(tuple(lo), 2 * spacing, tuple(int(n) for n in np.ceil((hi - lo) / (2 * spacing)) + 1))
     hull = visual_hull(obs, coarse, frame)
+    centres = coarse.centres()
+    hull &= (centres <= hi).all(axis=-1)
     if not hull.any():
         raise ValueError("the masks of the first frame have no common region inside the simulation domain: check "
                          "the cameras and masks")
     # nodes at cell centres of the lattice through the origin: the lowest layer of particles then starts at the floor
-    return VoxelGrid.around(coarse.centres()[hull], spacing, pad=3, anchor=np.zeros(3))
+    return VoxelGrid.around(centres[hull], spacing, pad=3, anchor=np.zeros(3))
 
 
 def _resample(field: torch.Tensor, source: VoxelGrid, target: VoxelGrid) -> torch.Tensor:

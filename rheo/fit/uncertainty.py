@@ -1,21 +1,19 @@
 """Approximate 95 % intervals of fitted parameters from the loss' curvature (Gauss-Newton / Laplace).
 
-The residuals are the rendered-minus-observed values on a fixed set of rays. Residuals within one image are
-correlated (a misplaced edge moves many pixels together), so the covariance is the cluster-robust sandwich
-A^-1 B A^-1 with A = J^T J and B the sum over images of (J_c^T r_c)(J_c^T r_c)^T, rather than sigma^2 A^-1, which
-would treat every pixel as independent and be far too confident. The Jacobian comes from central differences of the
-log-parameters (forward simulations only).
+The residuals are rendered-minus-observed values of every image (frame and view) on fixed pixels. Residuals within
+one image are correlated (a misplaced edge moves many pixels together), so the covariance is the cluster-robust
+sandwich A^-1 B A^-1 with A = J^T J and B the sum over images of (J_c^T r_c)(J_c^T r_c)^T, rather than
+sigma^2 A^-1, which would treat every pixel as independent and be far too confident. The Jacobian comes from central
+differences of the log-parameters (forward simulations only).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-import torch
-
-from rheo.fit.inverse import Problem
 
 Z95 = 1.959964
 # A parameter is determined when its 95 % interval spans less than this factor (low to high).
@@ -34,48 +32,36 @@ class Interval:
         return self.high / self.low < DETERMINED_SPAN
 
 
-def residuals(problem: Problem, log_values: torch.Tensor, v0: torch.Tensor, frames: int, rays_per_view: int,
-              seed: int = 12345) -> np.ndarray:
-    """Rendered minus observed on fixed rays: (frames, views, values per view)."""
-    with torch.no_grad():
-        trajectory = problem.simulate(log_values, v0, frames)
-        out = []
-        for k in range(1, frames + 1):
-            r = problem.frame_residual(trajectory.x[k], k, rays_per_view, np.random.default_rng(seed + k))
-            out.append(r.reshape(len(problem.obs.views), -1).numpy())
-    return np.asarray(out, dtype=np.float64)
-
-
-def laplace_intervals(problem: Problem, log_values: torch.Tensor, v0: torch.Tensor, frames: int,
-                      rays_per_view: int = 512, step: float = 0.05) -> tuple[dict[str, Interval], dict]:
-    """95 % intervals of the fitted parameters and the evidence behind them (Jacobian norms per parameter, the
-    loss at the optimum, and how much the loss grows when each parameter is doubled, from the Gauss-Newton model)."""
-    base = residuals(problem, log_values, v0, frames, rays_per_view)
+def laplace_intervals(residuals: Callable[[np.ndarray], list[np.ndarray]], log_values: np.ndarray,
+                      names: Sequence[str], step: float = 0.05) -> tuple[dict[str, Interval], dict]:
+    """95 % intervals of the parameters ``names`` fitted at ``log_values``, from ``residuals(log_values)`` (one
+    array per image), and the evidence behind them: Jacobian norms, the loss at the optimum, how much the loss grows
+    when each parameter is doubled (Gauss-Newton model), the covariance and correlations of the log-parameters."""
+    log_values = np.asarray(log_values, dtype=np.float64)
+    base = residuals(log_values)
     columns = []
     for i in range(len(log_values)):
-        delta = torch.zeros_like(log_values)
+        delta = np.zeros_like(log_values)
         delta[i] = step
-        plus = residuals(problem, log_values + delta, v0, frames, rays_per_view)
-        minus = residuals(problem, log_values - delta, v0, frames, rays_per_view)
-        columns.append((plus - minus) / (2 * step))
-    J = np.stack(columns, axis=-1)  # (frames, views, values, parameters)
-    flat_J, flat_r = J.reshape(-1, J.shape[-1]), base.reshape(-1)
-    A = flat_J.T @ flat_J
-    scores = np.einsum("fvkp,fvk->fvp", J, base).reshape(-1, J.shape[-1])  # one score per image
+        plus, minus = residuals(log_values + delta), residuals(log_values - delta)
+        columns.append([(p - m) / (2 * step) for p, m in zip(plus, minus, strict=True)])
+    jacobians = [np.stack(per_image, axis=1) for per_image in zip(*columns, strict=True)]  # per image (values, p)
+    A = sum(J.T @ J for J in jacobians)
+    scores = np.stack([J.T @ r for J, r in zip(jacobians, base, strict=True)])  # one score per image
     B = scores.T @ scores
     A_inv = np.linalg.pinv(A, rcond=1e-10)
     covariance = A_inv @ B @ A_inv
-    loss = float(flat_r @ flat_r)
+    loss = float(sum(r @ r for r in base))
     intervals, doubling = {}, {}
-    for i, name in enumerate(problem.names):
+    for i, name in enumerate(names):
         sigma = math.sqrt(max(covariance[i, i], 0.0)) if A[i, i] > 0 else math.inf
         value = math.exp(float(log_values[i]))
         spread = math.exp(min(Z95 * sigma, 700.0))
         intervals[name] = Interval(value, value / spread, value * spread, sigma)
         doubling[name] = float(A[i, i] * math.log(2.0) ** 2 / max(loss, 1e-30))
-    evidence = {"loss": loss, "rays_per_view": rays_per_view, "frames": frames, "step_log": step,
-                "jacobian_norm": {n: float(math.sqrt(A[i, i])) for i, n in enumerate(problem.names)},
+    scale = np.sqrt(np.outer(np.diag(covariance), np.diag(covariance))) + 1e-300
+    evidence = {"loss": loss, "images": len(base), "step_log": step,
+                "jacobian_norm": {n: float(math.sqrt(A[i, i])) for i, n in enumerate(names)},
                 "loss_increase_if_doubled": doubling, "covariance_log": covariance.tolist(),
-                "correlation": (covariance / np.sqrt(np.outer(np.diag(covariance), np.diag(covariance)) + 1e-300))
-                .round(3).tolist()}
+                "correlation": (covariance / scale).round(3).tolist()}
     return intervals, evidence

@@ -29,6 +29,13 @@ from rheo.physics.materials import Material, MaterialError
 logger = logging.getLogger(__name__)
 
 
+def particle_bounds(domain_origin, domain_size: float, dx: float) -> tuple[np.ndarray, np.ndarray]:
+    """The box (low, high corners) particles must start in: the domain less its boundary cells."""
+    margin = kernels.BOUND * dx
+    lo = np.asarray(domain_origin, dtype=float) + margin
+    return lo, lo + domain_size - 2 * margin
+
+
 class SimulationError(RuntimeError):
     """A rollout that cannot be run as asked."""
 
@@ -133,14 +140,16 @@ class Simulator:
     def _release(self, buf: _Buffers) -> None:
         self._free_buffers = [buf, *self._free_buffers[:1]]
 
+    def particle_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The box (low, high corners) particles must start in: the domain less its boundary cells."""
+        return particle_bounds(self.domain_origin, self.domain_size, self.dx)
+
     def _check_particles(self, x0: torch.Tensor) -> None:
         if x0.ndim != 2 or x0.shape[1] != 3 or x0.shape[0] == 0:
             raise SimulationError(f"initial positions must have shape (N, 3) with N > 0, got {tuple(x0.shape)}")
         if not torch.isfinite(x0).all():
             raise SimulationError("initial positions contain NaN or infinite values")
-        margin = kernels.BOUND * self.dx
-        lo = torch.tensor(self.domain_origin, dtype=x0.dtype) + margin
-        hi = lo + self.domain_size - 2 * margin
+        lo, hi = (torch.tensor(b, dtype=x0.dtype) for b in self.particle_bounds())
         bad = ((x0 < lo) | (x0 > hi)).any(dim=1)
         if bad.any():
             i = int(torch.nonzero(bad)[0])

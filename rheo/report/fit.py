@@ -21,24 +21,43 @@ SYMBOLS = {"mu": "μ", "lam": "λ", "sigma_y": "σ_y", "eta": "η", "tau_y": "τ
 
 
 def training_figure(history: list[dict], names: list[str], truth: dict[str, float]):
-    """Loss and learning rate on top, one panel per parameter below; the warm-up's end marked."""
+    """Thesis Appendix A's layout for a search: the loss of every evaluation and the best so far; each evaluation's
+    distance from the best point so far per parameter (the search's step, in place of a learning rate); one panel
+    per parameter. Phases are separated by dotted lines."""
     rows = math.ceil(len(names) / 2) + 1
     fig, axes = plt.subplots(rows, 2, figsize=(10, 2.8 * rows), squeeze=False)
     step = np.arange(len(history))
-    boundary = sum(1 for h in history if h["phase"] != "full")
-    panels = [(axes[0, 0], "loss", "loss"), (axes[0, 1], "learning_rate", "learning rate (every parameter)")]
-    panels += [(axes.ravel()[2 + i], n, SYMBOLS.get(n, n)) for i, n in enumerate(names)]
-    for ax, key, label in panels:
-        ax.plot(step, [float(h[key]) for h in history], lw=1.2)
-        if key in truth:
-            ax.axhline(truth[key], color="tab:green", ls="--", lw=1, label="truth")
+    loss = np.array([float(h["loss"]) for h in history])
+    values = np.log(np.array([[float(h[n]) for n in names] for h in history]))
+    best = np.minimum.accumulate(loss)
+    best_index = np.array([int(np.argmin(loss[:i + 1])) for i in range(len(loss))])
+    distance = np.abs(values - values[best_index])
+    ax = axes[0, 0]
+    ax.plot(step, loss, ".", ms=3, color="0.6", label="evaluation")
+    ax.plot(step, best, color="tab:blue", lw=1.2, label="best so far")
+    ax.set_yscale("log")
+    ax.set_title("loss (mean boundary distance, px)", fontsize=10)
+    ax.legend(fontsize=8)
+    ax = axes[0, 1]
+    for i, n in enumerate(names):
+        ax.plot(step, distance[:, i], lw=0.8, label=SYMBOLS.get(n, n))
+    ax.set_title("step: |log value - log best so far|", fontsize=10)
+    ax.legend(fontsize=8, ncol=2)
+    for i, n in enumerate(names):
+        ax = axes.ravel()[2 + i]
+        ax.plot(step, np.exp(values[:, i]), ".", ms=3, color="0.6")
+        ax.plot(step, np.exp(values[best_index, i]), color="tab:blue", lw=1.2)
+        if n in truth:
+            ax.axhline(truth[n], color="tab:green", ls="--", lw=1, label="truth")
             ax.legend(fontsize=8)
-        if key in names or key == "loss":
-            ax.set_yscale("log")
-        if 0 < boundary < len(history):
-            ax.axvline(boundary, color="0.6", ls=":", lw=1)
-        ax.set_title(label, fontsize=10)
-        ax.set_xlabel("iteration")
+        ax.set_yscale("log")
+        ax.set_title(SYMBOLS.get(n, n), fontsize=10)
+    phases = [h["phase"] for h in history]
+    changes = [i for i in range(1, len(phases)) if phases[i] != phases[i - 1]]
+    for ax in axes.ravel()[:2 + len(names)]:
+        for i in changes:
+            ax.axvline(i, color="0.6", ls=":", lw=1)
+        ax.set_xlabel("evaluation")
         ax.grid(alpha=0.3)
     for ax in axes.ravel()[2 + len(names):]:
         ax.axis("off")
@@ -111,12 +130,12 @@ def render(name: str, params: dict, sections: list[tuple[str, str]], config: dic
             + ", ".join(f"{k} = {v:.4g}" for k, v in params["herschel_bulkley"].items()) + ".</p>",
             table_tag(header, rows, classes)]
     undetermined = [SYMBOLS.get(k, k) for k, p in params["parameters"].items() if not p["determined"]]
+    body.append(f"<p>Intervals: the materials whose loss lies within {params['tolerance']:.0%} of the best fit's (the "
+                "fit model's own error), from a quadratic fitted to the loss around the optimum.</p>")
     if undetermined:
-        doubling = params["evidence"]["loss_increase_if_doubled"]
-        body.append("<p>Not determined by this recording: " + ", ".join(undetermined) + " (95 % interval wider than a "
-                    "factor 4; doubling it raises the loss by "
-                    + ", ".join(f"{SYMBOLS.get(k, k)}: {doubling[k]:.2%}" for k, p in params["parameters"].items()
-                                if not p["determined"]) + ").</p>")
+        body.append("<p>Not determined by this recording: " + ", ".join(undetermined) + " (the interval spans more "
+                    "than a factor 4: the loss barely changes along it). Held at the initial guess while the other "
+                    "parameters were fitted.</p>")
     for heading, content in sections:
         body.append(f"<h2>{html.escape(heading)}</h2>{content}")
     body.append("<h2>Stage runtimes</h2>" + table_tag(["stage", "seconds"],

@@ -12,10 +12,8 @@ from scipy import ndimage
 from scipy.optimize import least_squares
 from scipy.spatial import cKDTree
 
-from rheo.render.lab import Scene
+from rheo.render.silhouette import DISC, silhouette
 from rheo.vision.cameras import Camera
-
-DISC = Scene.splat_radius  # disc radius in particle spacings: a particle body's outline, as the lab's splats
 
 
 def _pose_to_c2w(params: np.ndarray) -> np.ndarray:
@@ -70,9 +68,4 @@ def refine_pose(camera: Camera, points: np.ndarray, spacing: float, mask: np.nda
 
 def silhouette_mask(camera: Camera, points: np.ndarray, spacing: float) -> np.ndarray:
     """The proxy's silhouette: its particles splatted as discs, holes closed."""
-    uv, depth = camera.project(points)
-    radius = np.maximum(DISC * spacing * camera.K[0, 0] / np.maximum(depth, 1e-6), 0.7)
-    mask = np.zeros((camera.height, camera.width), np.uint8)
-    for (u, v), r in zip(uv, radius, strict=True):
-        cv2.circle(mask, (round(u), round(v)), int(np.ceil(r)), 1, -1)
-    return ndimage.binary_fill_holes(mask.astype(bool))
+    return ndimage.binary_fill_holes(silhouette(camera, points, spacing))

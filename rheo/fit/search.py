@@ -1,0 +1,250 @@
+"""Fitting the material on whole-frame silhouettes, without gradients.
+
+The loss is the mean symmetric boundary distance (pixels) between the simulated particles' silhouettes and the masks,
+over every view and frame: deterministic (every pixel, no random rays) and informative even far from the optimum,
+where overlap losses are flat. Its minimiser is searched in two steps: a quasi-random survey of a wide box of
+log-parameters around the initial guess, then Nelder-Mead from the best point of the survey. Gradient descent on
+the rendering loss stalled in the curved, nearly flat valley between soft-and-strong and stiff-and-weak materials;
+the survey finds the right valley and the simplex needs no gradient of a loss that pixel edges make rough.
+
+Every evaluation is stored (in a JSON file written atomically after each one), so an interrupted search replays the
+stored values and goes on from where it stopped.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+import numpy as np
+from scipy.optimize import minimize
+from scipy.stats import qmc
+
+from rheo.fit.observations import Observations
+from rheo.fit.uncertainty import Z95, Interval
+from rheo.io import write_atomic
+from rheo.render.silhouette import coverage
+
+logger = logging.getLogger(__name__)
+
+
+def _outside_distance(mask: np.ndarray) -> np.ndarray:
+    """Distance (px) from every pixel to the nearest pixel of ``mask``."""
+    return cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+
+
+class SilhouetteTarget:
+    """The masks of frames 0 .. ``frames`` of every view, with their distance maps."""
+
+    def __init__(self, obs: Observations, frames: int) -> None:
+        self.obs = obs
+        self.frames = frames
+        self.masks = [[v.masks[k].reshape(v.camera.height, v.camera.width).astype(bool) for v in obs.views]
+                      for k in range(frames + 1)]
+        self.outside = [[_outside_distance(m) for m in row] for row in self.masks]
+
+    def distances(self, positions: Sequence[np.ndarray], spacing: float) -> np.ndarray:
+        """Symmetric mean boundary distance (px) of every frame 1 .. frames and view: (frames, views). Half the
+        mean distance of the simulated silhouette's pixels to the mask plus half that of the mask's pixels to the
+        silhouette."""
+        out = np.empty((self.frames, len(self.obs.views)))
+        for k in range(1, self.frames + 1):
+            for i, view in enumerate(self.obs.views):
+                simulated = coverage(view.camera, positions[k], spacing) >= 0.5
+                mask, outside = self.masks[k][i], self.outside[k][i]
+                to_mask = outside[simulated].mean() if simulated.any() else outside.max()
+                to_simulated = _outside_distance(simulated)[mask].mean() if mask.any() else 0.0
+                out[k - 1, i] = 0.5 * (to_mask + to_simulated)
+        return out
+
+    def residuals(self, positions: Sequence[np.ndarray], spacing: float) -> list[np.ndarray]:
+        """Covered fraction minus mask on the focus pixels, one array per image (frame 1 .. frames, view)."""
+        return [coverage(view.camera, positions[k], spacing).ravel()[view.focus] - view.masks[k][view.focus]
+                for k in range(1, self.frames + 1) for view in self.obs.views]
+
+
+class EvaluationLog:
+    """Objective values stored by phase and point, in ``path`` under ``key`` (the fit's inputs and settings): a
+    stored point is not evaluated again, so a resumed search replays the stored values up to where it stopped."""
+
+    def __init__(self, path: str | Path, key: str) -> None:
+        self.path, self.key = Path(path), key
+        self.records: list[dict] = []
+        if self.path.is_file():
+            stored = json.loads(self.path.read_text())
+            if stored.get("key") == key:
+                self.records = stored["records"]
+                logger.info("replaying %d stored evaluations from %s", len(self.records), self.path)
+        self._index = {self._point_key(r["phase"], r["x"]): r for r in self.records}
+
+    @staticmethod
+    def _point_key(phase: str, x) -> str:
+        return phase + ":" + ",".join(f"{v:.12g}" for v in x)
+
+    def evaluate(self, objective: Callable[[np.ndarray], float], x: np.ndarray, phase: str) -> float:
+        record = self._index.get(self._point_key(phase, x))
+        if record is None:
+            record = {"phase": phase, "x": [float(v) for v in x], "loss": float(objective(x))}
+            self.records.append(record)
+            self._index[self._point_key(phase, x)] = record
+            write_atomic(self.path, lambda p: p.write_text(json.dumps({"key": self.key, "records": self.records})))
+        return record["loss"]
+
+
+def survey(evaluate: Callable[[np.ndarray, str], float], centre: np.ndarray, half_width: float, samples: int,
+           seed: int = 0, progress: Callable[[], None] | None = None) -> tuple[np.ndarray, float]:
+    """The best of ``samples`` scrambled-Sobol points in the box centre +- half_width (log units); the centre is the
+    first point."""
+    unit = qmc.Sobol(len(centre), seed=seed).random(max(samples - 1, 0))
+    points = np.r_[centre[None, :], centre + (2.0 * unit - 1.0) * half_width]
+    values = []
+    for x in points:
+        values.append(evaluate(x, "survey"))
+        if progress:
+            progress()
+    best = int(np.argmin(values))
+    return points[best], values[best]
+
+
+def simplex_search(evaluate: Callable[[np.ndarray, str], float], start: np.ndarray, step: float, evaluations: int,
+                   phase: str, tolerance: float = 0.01) -> tuple[np.ndarray, float]:
+    """Nelder-Mead from ``start`` with an initial simplex of ``step`` (log units) along each axis, for at most
+    ``evaluations`` evaluations or until the simplex is within ``tolerance`` (log units)."""
+    simplex = start + np.r_[np.zeros((1, len(start))), step * np.eye(len(start))]
+    result = minimize(lambda x: evaluate(x, phase), start, method="Nelder-Mead",
+                      options={"initial_simplex": simplex, "maxfev": evaluations, "xatol": tolerance,
+                               "fatol": 1e-9})
+    return result.x, float(result.fun)
+
+
+def design_points(centre: np.ndarray, step: float, free: Sequence[int]) -> np.ndarray:
+    """Points around ``centre`` from which a quadratic in the ``free`` coordinates is fitted: the centre, +- step
+    along each free axis and +- step along both axes of each pair (1 + 2k + k(k - 1) points for 15 coefficients
+    at k = 4)."""
+    offsets = [np.zeros(len(centre))]
+    for a, i in enumerate(free):
+        for sign in (1.0, -1.0):
+            offsets.append(sign * step * np.eye(len(centre))[i])
+        for j in free[a + 1:]:
+            for sign in (1.0, -1.0):
+                offsets.append(sign * step * (np.eye(len(centre))[i] + np.eye(len(centre))[j]))
+    return centre + np.array(offsets)
+
+
+def fit_quadratic(offsets: np.ndarray, values: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+    """Least-squares c, g, H of c + g.d + d.H.d / 2 through (offsets (m, k), values)."""
+    k = offsets.shape[1]
+    pairs = [(i, j) for i in range(k) for j in range(i, k)]
+    design = np.c_[np.ones(len(offsets)), offsets,
+                   [[d[i] * d[j] * (0.5 if i == j else 1.0) for i, j in pairs] for d in offsets]]
+    coef = np.linalg.lstsq(design, values, rcond=None)[0]
+    H = np.zeros((k, k))
+    for (i, j), h in zip(pairs, coef[1 + k:], strict=True):
+        H[i, j] = H[j, i] = h
+    return float(coef[0]), coef[1:1 + k], H
+
+
+def tolerance_region(c: float, g: np.ndarray, H: np.ndarray, threshold: float
+                     ) -> tuple[list[tuple[float, float] | None], np.ndarray]:
+    """For each coordinate, the range of the region where the quadratic c + g.d + d.H.d / 2 stays below
+    ``threshold`` (its projection, so correlations widen it); None where the region is unbounded (the curvature
+    is not positive along a direction that coordinate takes part in). Also the covariance of the normal
+    distribution whose 95 % intervals are these ranges (on the bounded directions)."""
+    eigenvalues, vectors = np.linalg.eigh(H)
+    flat = eigenvalues <= 1e-6 * max(abs(eigenvalues).max(), 1e-30)
+    unbounded = (np.abs(vectors[:, flat]) > 0.1).any(axis=1)
+    inverse = vectors[:, ~flat] @ np.diag(1.0 / eigenvalues[~flat]) @ vectors[:, ~flat].T
+    centre = -inverse @ g
+    lowest = c + 0.5 * g @ centre
+    room = max(threshold - lowest, 0.0)
+    out = []
+    for i in range(len(g)):
+        half = np.sqrt(2.0 * room * inverse[i, i])
+        out.append(None if unbounded[i] else (centre[i] - half, centre[i] + half))
+    return out, 2.0 * room * inverse / Z95**2
+
+
+Evaluate = Callable[[np.ndarray, str], float]
+
+
+@dataclass
+class Estimate:
+    """A fit's result: log-parameters, loss, 95 % intervals, the parameters held at their initial guess because the
+    recording does not determine them, and the evidence behind the intervals."""
+
+    log_values: np.ndarray
+    loss: float
+    intervals: dict[str, Interval]
+    held: list[str] = field(default_factory=list)
+    evidence: dict = field(default_factory=dict)
+
+
+def identify(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int], names: Sequence[str], step: float,
+             tolerance: float, box: tuple[np.ndarray, np.ndarray], phase: str = "curvature"
+             ) -> tuple[np.ndarray, float, dict[str, Interval], dict]:
+    """Intervals of the ``free`` parameters: the region where a quadratic fitted to the loss around ``centre``
+    stays within ``tolerance`` (relative) of the lowest loss, projected on each axis (clipped to ``box``; the whole
+    box where the loss is not curved). Returns the best point seen (the centre or a design point), its loss, the
+    intervals and the evidence."""
+    points = design_points(centre, step, free)
+    values = np.array([evaluate(x, phase) for x in points])
+    best = int(np.argmin(values))
+    c, g, H = fit_quadratic((points - centre)[:, free], values)
+    threshold = (1.0 + tolerance) * values[best]
+    region, covariance = tolerance_region(c, g, H, threshold)
+    x = points[best]
+    intervals = {}
+    for (i, span) in zip(free, region, strict=True):
+        low, high = (box[0][i], box[1][i]) if span is None else (centre[i] + span[0], centre[i] + span[1])
+        low, high = min(max(low, box[0][i]), x[i]), max(min(high, box[1][i]), x[i])
+        intervals[names[i]] = Interval(float(np.exp(x[i])), float(np.exp(low)), float(np.exp(high)),
+                                       float((high - low) / (2 * Z95)))
+    free_names = [names[i] for i in free]
+    evidence = {"loss": float(values[best]), "threshold": float(threshold), "design_step_log": step,
+                "design_points": len(points), "gradient_log": dict(zip(free_names, g.tolist(), strict=True)),
+                "curvature_log": H.tolist(), "covariance_log": covariance.tolist(),
+                "unbounded": [n for n, span in zip(free_names, region, strict=True) if span is None]}
+    return x, float(values[best]), intervals, evidence
+
+
+def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Sequence[str], *, evaluations: int,
+             step: float, design_step: float, tolerance: float, box: tuple[np.ndarray, np.ndarray]) -> Estimate:
+    """Nelder-Mead from ``start`` on every frame, then intervals from the loss' curvature. Parameters the recording
+    does not determine (interval wider than a factor 4) are held at their initial guess, the others fitted again
+    with them held: a flat direction would otherwise leave them wherever the search's noise took them."""
+    everything = list(range(len(start)))
+    x, _ = simplex_search(evaluate, start, step, evaluations, "full")
+    x, loss, intervals, evidence = identify(evaluate, x, everything, names, design_step, tolerance, box)
+    held = [i for i in everything if not intervals[names[i]].determined]
+    result = Estimate(x, loss, intervals, [names[i] for i in held],
+                      {"all_free": evidence, "covariance_log": evidence["covariance_log"]})
+    free = [i for i in everything if i not in held]
+    if not held or not free:
+        return result
+    fixed = x.copy()
+    fixed[held] = guess[held]
+
+    def partial(y: np.ndarray, phase: str) -> float:
+        z = fixed.copy()
+        z[free] = y
+        return evaluate(z, phase)
+
+    y, _ = simplex_search(partial, fixed[free], step, max(evaluations // 2, 1), "held")
+    fixed[free] = y
+    x, loss, free_intervals, evidence = identify(evaluate, fixed, free, names, design_step, tolerance, box,
+                                                 phase="curvature, held")
+    for i in held:
+        joint = intervals[names[i]]
+        value = float(np.exp(guess[i]))
+        intervals[names[i]] = Interval(value, min(joint.low, value), max(joint.high, value), joint.sigma_log)
+    intervals.update(free_intervals)
+    result.log_values, result.loss, result.intervals = x, loss, intervals
+    result.evidence["held_at_guess"] = evidence
+    covariance = np.diag([intervals[n].sigma_log ** 2 for n in names])
+    covariance[np.ix_(free, free)] = evidence["covariance_log"]
+    result.evidence["covariance_log"] = covariance.tolist()
+    return result

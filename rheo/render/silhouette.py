@@ -1,0 +1,40 @@
+"""Silhouettes of particle sets: every particle a disc of the lab's splat radius, rasterised with supersampling.
+
+Fast (a few milliseconds per image, no Python loop over particles) and deterministic, for comparisons of whole
+frames with masks, where the differentiable renderer's random ray batches would be both slow and noisy."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from rheo.render.lab import Scene
+from rheo.vision.cameras import Camera
+
+DISC = Scene.splat_radius  # disc radius in particle spacings: a particle body's outline, as the lab's splats
+
+
+def _disc_kernel(radius: float) -> np.ndarray:
+    r = max(int(np.ceil(radius - 0.5)), 0)
+    y, x = np.mgrid[-r:r + 1, -r:r + 1]
+    return (x * x + y * y <= radius * radius + 0.25).astype(np.uint8)
+
+
+def coverage(camera: Camera, points: np.ndarray, spacing: float, supersample: int = 2) -> np.ndarray:
+    """The fraction (H, W) of every pixel covered by the particles' discs (radius from the median depth)."""
+    uv, depth = camera.project(np.asarray(points, dtype=np.float64))
+    height, width = camera.height * supersample, camera.width * supersample
+    # pixel centres at integers (OpenCV): sub-pixel (i, j) of pixel (u, v) has centre u + (j + 0.5) / s - 0.5
+    sub = np.floor((uv + 0.5) * supersample).astype(int)
+    keep = (depth > 0) & (sub[:, 0] >= 0) & (sub[:, 0] < width) & (sub[:, 1] >= 0) & (sub[:, 1] < height)
+    hits = np.zeros((height, width), np.uint8)
+    hits[sub[keep, 1], sub[keep, 0]] = 1
+    if keep.any():
+        radius = DISC * spacing * camera.K[0, 0] * supersample / float(np.median(depth[keep]))
+        hits = cv2.dilate(hits, _disc_kernel(radius))
+    return cv2.resize(hits.astype(np.float32), (camera.width, camera.height), interpolation=cv2.INTER_AREA)
+
+
+def silhouette(camera: Camera, points: np.ndarray, spacing: float) -> np.ndarray:
+    """The particles' silhouette (H, W) bool: pixels at least half covered."""
+    return coverage(camera, points, spacing) >= 0.5
