@@ -1,8 +1,9 @@
 """fit: the constitutive parameters on whole-frame silhouettes (rheo.fit.search), in two phases: a warm-up that surveys
-a wide box of log-parameters on the first frames, then a simplex search on every frame from the survey's best point,
-intervals from the loss' curvature, and parameters the recording does not determine held at their initial guess.
-Every evaluation is stored, so an interrupted fit replays them and goes on. The full phase writes params.json and
-history.csv."""
+a wide box of log-parameters on the first frames and then refines the initial velocity (the velocity stage's estimate
+was made with the material at its guess, whose different collapse it partly absorbs) at the survey's best material;
+then a simplex search on every frame from there, intervals from the loss' curvature, and parameters the recording
+does not determine held at their initial guess. Every evaluation is stored, so an interrupted fit replays them and
+goes on. The full phase writes params.json and history.csv."""
 
 import csv
 from pathlib import Path
@@ -14,7 +15,7 @@ from tqdm.auto import tqdm
 from rheo.experiments.scene import material
 from rheo.fit.inverse import build_problem, initial_guess, log_values
 from rheo.fit.observations import load
-from rheo.fit.search import EvaluationLog, SilhouetteTarget, estimate, survey
+from rheo.fit.search import EvaluationLog, SilhouetteTarget, estimate, simplex_search, survey
 from rheo.io import read_json, write_atomic, write_json_atomic
 from rheo.stage import inputs_key, setup_logging
 
@@ -28,7 +29,7 @@ obs = load(smk.input.recordings, smk.input.matte, smk.input.cameras, frames=fram
 problem = build_problem(exp, obs, smk.input.seed)
 names = problem.names
 target = SilhouetteTarget(obs, obs.frames - 1)
-v0 = torch.tensor(read_json(smk.input.velocity)["v0"], dtype=torch.float64)
+VELOCITY_STEP = 0.05  # m/s, the initial simplex of the velocity refinement
 guess = log_values(initial_guess(exp), names).numpy()
 half_width = np.log(settings["warmup"]["box"])
 box = (guess - half_width, guess + half_width)
@@ -39,17 +40,26 @@ evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
 bar = tqdm(desc=phase_name, unit="evaluation", total=settings["warmup"]["samples"] if warmup else None)
 
 
-def loss(x: np.ndarray) -> float:
+count = len(names)
+
+
+def describe(z: np.ndarray) -> dict[str, float]:
+    """The variables z = (log-parameters, initial velocity) by name."""
+    return {**dict(zip(names, np.exp(z[:count]).tolist(), strict=True)),
+            **dict(zip(("vx", "vy", "vz"), z[count:].tolist(), strict=True))}
+
+
+def loss(z: np.ndarray) -> float:
     with torch.no_grad():
-        trajectory = problem.simulate(torch.as_tensor(x), v0, target.frames)
+        trajectory = problem.simulate(torch.as_tensor(z[:count]), torch.as_tensor(z[count:]), target.frames)
     return float(target.distances(trajectory.x.numpy(), problem.spacing).mean())
 
 
-def evaluate(x: np.ndarray, phase: str) -> float:
-    value = evaluations.evaluate(loss, x, phase)
+def evaluate(z: np.ndarray, phase: str) -> float:
+    value = evaluations.evaluate(loss, z, phase)
     bar.update()
     log.info("%s %d: loss %.5g px, %s", phase, bar.n, value,
-             ", ".join(f"{n} {v:.4g}" for n, v in zip(names, np.exp(x), strict=True)))
+             ", ".join(f"{n} {v:.4g}" for n, v in describe(z).items()))
     return value
 
 
@@ -59,20 +69,26 @@ def history_rows(records: list[dict]) -> list[dict]:
     for i, record in enumerate(records):
         best = min(best, record["loss"])
         rows.append({"phase": record["phase"], "evaluation": i, "loss": record["loss"], "best_loss": best,
-                     **dict(zip(names, np.exp(record["x"]).tolist(), strict=True))})
+                     **describe(np.asarray(record["x"]))})
     return rows
 
 
 if warmup:
-    x, value = survey(evaluate, guess, half_width, settings["warmup"]["samples"])
+    v0 = np.asarray(read_json(smk.input.velocity)["v0"], dtype=float)
+    x, value = survey(lambda x, phase: evaluate(np.r_[x, v0], phase), guess, half_width,
+                      settings["warmup"]["samples"])
+    v0, value = simplex_search(lambda v, phase: evaluate(np.r_[x, v], phase), v0, VELOCITY_STEP,
+                               settings["warmup"]["velocity_evaluations"], "velocity", tolerance=0.1 * VELOCITY_STEP)
+    values = describe(np.r_[x, v0])
     log.info("warm-up: best of %d survey points, loss %.5g px: %s", settings["warmup"]["samples"], value,
-             ", ".join(f"{n} {v:.4g}" for n, v in zip(names, np.exp(x), strict=True)))
-    write_json_atomic(smk.output.warmup, {"values": dict(zip(names, np.exp(x).tolist(), strict=True)),
-                                          "log_values": x.tolist(), "loss": value,
-                                          "history": history_rows(evaluations.records)})
+             ", ".join(f"{n} {v:.4g}" for n, v in values.items()))
+    write_json_atomic(smk.output.warmup, {"values": values, "log_values": x.tolist(), "v0": v0.tolist(),
+                                          "loss": value, "history": history_rows(evaluations.records)})
 else:
-    start = np.asarray(read_json(smk.input.warmup)["log_values"])
-    result = estimate(evaluate, start, guess, names, evaluations=settings["full"]["evaluations"],
+    warm = read_json(smk.input.warmup)
+    start, v0 = np.asarray(warm["log_values"]), np.asarray(warm["v0"])
+    result = estimate(lambda x, phase: evaluate(np.r_[x, v0], phase), start, guess, names,
+                      evaluations=settings["full"]["evaluations"],
                       step=settings["full"]["step"], design_step=settings["design_step"],
                       tolerance=settings["tolerance"], box=box)
     truth = read_json(smk.input.truth)["material"]["as_configured"] if hasattr(smk.input, "truth") else {}
@@ -84,7 +100,8 @@ else:
             entry.update(truth=truth[name], error=interval.value / truth[name] - 1.0)
         params[name] = entry
         log.info("%s = %.4g, 95%% interval [%.4g, %.4g]%s%s", name, interval.value, interval.low, interval.high,
-                 "" if interval.determined else " (not determined by the recording: held at the initial guess)",
+                 "" if interval.determined else " (not determined by the recording"
+                 + (": held at the initial guess)" if name in result.held else ")"),
                  f", truth {truth[name]:.4g} ({entry['error']:+.1%})" if name in truth else "")
     hb = material({**exp["material"], **{n: p["value"] for n, p in params.items()}})
     write_json_atomic(smk.output.params, {

@@ -99,7 +99,8 @@ def survey(evaluate: Callable[[np.ndarray, str], float], centre: np.ndarray, hal
            seed: int = 0, progress: Callable[[], None] | None = None) -> tuple[np.ndarray, float]:
     """The best of ``samples`` scrambled-Sobol points in the box centre +- half_width (log units); the centre is the
     first point."""
-    unit = qmc.Sobol(len(centre), seed=seed).random(max(samples - 1, 0))
+    count = max(samples - 1, 0)
+    unit = qmc.Sobol(len(centre), seed=seed).random_base2(max(int(np.ceil(np.log2(max(count, 1)))), 0))[:count]
     points = np.r_[centre[None, :], centre + (2.0 * unit - 1.0) * half_width]
     values = []
     for x in points:
@@ -214,12 +215,16 @@ def identify(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int], names:
 def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Sequence[str], *, evaluations: int,
              step: float, design_step: float, tolerance: float, box: tuple[np.ndarray, np.ndarray]) -> Estimate:
     """Nelder-Mead from ``start`` on every frame, then intervals from the loss' curvature. Parameters the recording
-    does not determine (interval wider than a factor 4) are held at their initial guess, the others fitted again
-    with them held: a flat direction would otherwise leave them wherever the search's noise took them."""
+    does not determine (interval wider than a factor 4) and whose initial guess lies inside their interval are held
+    at the guess, the others fitted again with them held: a flat direction would otherwise leave them wherever the
+    search's noise took them. (A stiff material's moduli, say, are undetermined above some value but matter below
+    it: a guess below stays unused.)"""
     everything = list(range(len(start)))
     x, _ = simplex_search(evaluate, start, step, evaluations, "full")
     x, loss, intervals, evidence = identify(evaluate, x, everything, names, design_step, tolerance, box)
-    held = [i for i in everything if not intervals[names[i]].determined]
+    # an undetermined parameter goes back to its guess where the guess is as good as any value (inside the interval)
+    held = [i for i in everything if not intervals[names[i]].determined
+            and intervals[names[i]].low <= np.exp(guess[i]) <= intervals[names[i]].high]
     result = Estimate(x, loss, intervals, [names[i] for i in held],
                       {"all_free": evidence, "covariance_log": evidence["covariance_log"]})
     free = [i for i in everything if i not in held]

@@ -17,7 +17,8 @@ from scipy import ndimage
 from tqdm.auto import tqdm
 
 from rheo.fit.observations import Observations, sample_rays
-from rheo.render.field import WHITE, VoxelGrid, march, render_particles
+from rheo.render.field import WHITE, VoxelGrid, march
+from rheo.render.silhouette import silhouette
 
 logger = logging.getLogger(__name__)
 
@@ -165,22 +166,18 @@ def field_particles(density: torch.Tensor, colour: torch.Tensor, grid: VoxelGrid
 
 
 def silhouette_iou(obs: Observations, seed: Seed, frame: int = 0) -> dict[str, float]:
-    """Per view, the IoU of the particles' rendered silhouette with the mask (over the pixels around the material)."""
-    positions = torch.as_tensor(seed.positions, dtype=torch.float32)
-    density = torch.as_tensor(seed.density, dtype=torch.float32)
+    """Per view, the IoU of the particles' silhouette (as the fit draws it) with the mask."""
     scores = {}
-    with torch.no_grad():
-        for view in obs.views:
-            origins = torch.as_tensor(view.origin, dtype=torch.float32).expand(len(view.focus), 3)
-            _, opacity = render_particles(positions, density, None, seed.spacing, origins,
-                                          torch.as_tensor(view.dirs[view.focus]), anchor=seed.positions[0])
-            rendered, mask = opacity.numpy() > 0.5, view.masks[frame][view.focus]
-            scores[view.name] = float((rendered & mask).sum() / max((rendered | mask).sum(), 1))
+    for view in obs.views:
+        rendered = silhouette(view.camera, seed.positions, seed.spacing).ravel()
+        mask = view.masks[frame]
+        scores[view.name] = float((rendered & mask).sum() / max((rendered | mask).sum(), 1))
     return scores
 
 
 def seed_from_field(obs: Observations, density: torch.Tensor, colour: torch.Tensor, grid: VoxelGrid,
-                    thresholds=(0.7, 0.5, 0.3, 0.2, 0.1, 0.05)) -> tuple[Seed, float, dict[str, float]]:
+                    thresholds=(0.8, 0.6, 0.4, 0.3, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005)
+                    ) -> tuple[Seed, float, dict[str, float]]:
     """The particles of the opacity threshold whose silhouettes best match the first frame's masks (mean IoU over
     the views); returns them, the threshold and the IoU per view."""
     best = None
@@ -191,6 +188,9 @@ def seed_from_field(obs: Observations, density: torch.Tensor, colour: torch.Tens
                     np.mean(list(scores.values())))
         if best is None or np.mean(list(scores.values())) > np.mean(list(best[2].values())):
             best = (seed, threshold, scores)
+    if best[1] == min(thresholds):
+        logger.warning("the lowest opacity threshold (%g) matches the masks best: the field may be too faint",
+                       best[1])
     return best
 
 

@@ -8,10 +8,11 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from rheo.render.lab import Scene
 from rheo.vision.cameras import Camera
 
-DISC = Scene.splat_radius  # disc radius in particle spacings: a particle body's outline, as the lab's splats
+# disc radius in particle spacings: the circle inscribed in a particle's cell. The proxy's particles then draw the
+# virtual cup's matted masks to 0.1 % in area (0.6, the lab's splat radius: +1.4 %; 0.4: -1.9 %)
+DISC = 0.5
 
 
 def _disc_kernel(radius: float) -> np.ndarray:

@@ -134,8 +134,8 @@ def render(name: str, params: dict, sections: list[tuple[str, str]], config: dic
                 "fit model's own error), from a quadratic fitted to the loss around the optimum.</p>")
     if undetermined:
         body.append("<p>Not determined by this recording: " + ", ".join(undetermined) + " (the interval spans more "
-                    "than a factor 4: the loss barely changes along it). Held at the initial guess while the other "
-                    "parameters were fitted.</p>")
+                    "than a factor 4: the loss barely changes along it). Those whose initial guess lies inside "
+                    "their interval were held at it while the other parameters were fitted.</p>")
     for heading, content in sections:
         body.append(f"<h2>{html.escape(heading)}</h2>{content}")
     body.append("<h2>Stage runtimes</h2>" + table_tag(["stage", "seconds"],

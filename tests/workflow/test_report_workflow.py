@@ -20,9 +20,17 @@ def test_tiny_report_end_to_end(workflow):
     assert params["parameters"]["tau_y"]["initial"] == 10.0  # the configured guess, never the truth
     with open(root / "fit/history.csv") as f:
         history = list(csv.DictReader(f))
-    assert [h["phase"] for h in history] == ["warm-up"] * 4 + ["full"] * 4
-    assert {"loss", "learning_rate", "mu", "tau_y", "vx"} <= set(history[0])
-    assert not list(root.rglob("*.checkpoint"))  # finished stages leave no checkpoint behind
+    phases = [h["phase"] for h in history]
+    assert phases[:9] == ["survey"] * 8 + ["velocity"]  # 8 survey points, then the initial velocity
+    assert phases.index("full") < phases.index("curvature")
+    assert {"loss", "best_loss", "mu", "tau_y", "vx"} <= set(history[0])
+    held = [n for n, p in params["parameters"].items() if p["held_at_initial_guess"]]
+    assert held == [n for n, p in params["parameters"].items() if not p["determined"]]
+    last = {"held", "curvature, held"} if held else {"full", "curvature"}
+    best = min(float(h["loss"]) for h in history if h["phase"] in last)
+    assert float(params["final_loss"]) == best  # the reported point is the best of the last search
+    # finished stages leave no checkpoint or stored evaluations behind
+    assert not list(root.rglob("*.checkpoint")) and not list(root.rglob("*.evaluations.json"))
     page = (root / "report.html").read_text()
     assert len(re.findall(r'src="data:image/(png|gif);base64,', page)) >= 6  # tables, plots, frames, animations
     assert "http://" not in page and "Stage runtimes" in page and "τ_y" in page

@@ -66,3 +66,21 @@ rule thesis_collapse_report:
         rows_42=collapse_config()["table_4_2"]["rows"],
     script:
         "../../stages/thesis_collapse_report.py"
+
+
+def recovery_tables() -> dict:
+    return config["thesis"].get("recovery", {})
+
+
+rule thesis_report:
+    input:
+        collapse="results/thesis/collapse.csv",
+        params=[f"results/{t['experiment']}/fit/params.json" for t in recovery_tables().values()],
+    output:
+        "results/thesis/report.html",
+    log:
+        "logs/thesis/report.log",
+    params:
+        tables=recovery_tables(),
+    script:
+        "../../stages/thesis_report.py"
