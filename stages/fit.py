@@ -89,7 +89,7 @@ else:
     start, v0 = np.asarray(warm["log_values"]), np.asarray(warm["v0"])
     result = estimate(lambda x, phase: evaluate(np.r_[x, v0], phase), start, guess, names,
                       evaluations=settings["full"]["evaluations"],
-                      step=settings["full"]["step"], design_step=settings["design_step"],
+                      step=settings["full"]["step"], profile_step=settings["profile_step"],
                       tolerance=settings["tolerance"], box=box)
     truth = read_json(smk.input.truth)["material"]["as_configured"] if hasattr(smk.input, "truth") else {}
     params = {}

@@ -122,51 +122,15 @@ def simplex_search(evaluate: Callable[[np.ndarray, str], float], start: np.ndarr
     return result.x, float(result.fun)
 
 
-def design_points(centre: np.ndarray, step: float, free: Sequence[int]) -> np.ndarray:
-    """Points around ``centre`` from which a quadratic in the ``free`` coordinates is fitted: the centre, +- step
-    along each free axis and +- step along both axes of each pair (1 + 2k + k(k - 1) points for 15 coefficients
-    at k = 4)."""
-    offsets = [np.zeros(len(centre))]
-    for a, i in enumerate(free):
-        for sign in (1.0, -1.0):
-            offsets.append(sign * step * np.eye(len(centre))[i])
-        for j in free[a + 1:]:
-            for sign in (1.0, -1.0):
-                offsets.append(sign * step * (np.eye(len(centre))[i] + np.eye(len(centre))[j]))
-    return centre + np.array(offsets)
-
-
-def fit_quadratic(offsets: np.ndarray, values: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-    """Least-squares c, g, H of c + g.d + d.H.d / 2 through (offsets (m, k), values)."""
-    k = offsets.shape[1]
-    pairs = [(i, j) for i in range(k) for j in range(i, k)]
-    design = np.c_[np.ones(len(offsets)), offsets,
-                   [[d[i] * d[j] * (0.5 if i == j else 1.0) for i, j in pairs] for d in offsets]]
-    coef = np.linalg.lstsq(design, values, rcond=None)[0]
-    H = np.zeros((k, k))
-    for (i, j), h in zip(pairs, coef[1 + k:], strict=True):
-        H[i, j] = H[j, i] = h
-    return float(coef[0]), coef[1:1 + k], H
-
-
-def tolerance_region(c: float, g: np.ndarray, H: np.ndarray, threshold: float
-                     ) -> tuple[list[tuple[float, float] | None], np.ndarray]:
-    """For each coordinate, the range of the region where the quadratic c + g.d + d.H.d / 2 stays below
-    ``threshold`` (its projection, so correlations widen it); None where the region is unbounded (the curvature
-    is not positive along a direction that coordinate takes part in). Also the covariance of the normal
-    distribution whose 95 % intervals are these ranges (on the bounded directions)."""
-    eigenvalues, vectors = np.linalg.eigh(H)
-    flat = eigenvalues <= 1e-6 * max(abs(eigenvalues).max(), 1e-30)
-    unbounded = (np.abs(vectors[:, flat]) > 0.1).any(axis=1)
-    inverse = vectors[:, ~flat] @ np.diag(1.0 / eigenvalues[~flat]) @ vectors[:, ~flat].T
-    centre = -inverse @ g
-    lowest = c + 0.5 * g @ centre
-    room = max(threshold - lowest, 0.0)
-    out = []
-    for i in range(len(g)):
-        half = np.sqrt(2.0 * room * inverse[i, i])
-        out.append(None if unbounded[i] else (centre[i] - half, centre[i] + half))
-    return out, 2.0 * room * inverse / Z95**2
+def parabola_region(offsets: np.ndarray, values: np.ndarray, threshold: float) -> tuple[float, float] | None:
+    """The range of offsets where the parabola fitted to (offsets, values) stays below ``threshold``; None where it
+    does not curve upwards (the loss does not bound the parameter)."""
+    a, b, c = np.polynomial.polynomial.polyfit(offsets, values, 2)
+    if c <= 0:
+        return None
+    vertex = -b / (2 * c)
+    half = np.sqrt(max(threshold - (a + b * vertex + c * vertex**2), 0.0) / c)
+    return vertex - half, vertex + half
 
 
 Evaluate = Callable[[np.ndarray, str], float]
@@ -185,48 +149,59 @@ class Estimate:
 
 
 def identify(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int], names: Sequence[str], step: float,
-             tolerance: float, box: tuple[np.ndarray, np.ndarray], phase: str = "curvature"
+             tolerance: float, box: tuple[np.ndarray, np.ndarray], phase: str = "profile"
              ) -> tuple[np.ndarray, float, dict[str, Interval], dict]:
-    """Intervals of the ``free`` parameters: the region where a quadratic fitted to the loss around ``centre``
-    stays within ``tolerance`` (relative) of the lowest loss, projected on each axis (clipped to ``box``; the whole
-    box where the loss is not curved). Returns the best point seen (the centre or a design point), its loss, the
-    intervals and the evidence."""
-    points = design_points(centre, step, free)
-    values = np.array([evaluate(x, phase) for x in points])
-    best = int(np.argmin(values))
-    c, g, H = fit_quadratic((points - centre)[:, free], values)
-    threshold = (1.0 + tolerance) * values[best]
-    region, covariance = tolerance_region(c, g, H, threshold)
-    x = points[best]
-    intervals = {}
-    for (i, span) in zip(free, region, strict=True):
+    """Intervals of the ``free`` parameters from profiles of the loss along each of them (the others at
+    ``centre``; offsets -2, -1, 1, 2 times ``step`` in log units): the range where a parabola through the profile
+    stays within ``tolerance`` (relative) of the lowest loss seen, clipped to ``box`` (the whole box where the
+    profile does not curve upwards). A parabola over a wide step smooths the roughness pixel edges give the loss,
+    which would make a local Hessian meaningless. Returns the best point seen, its loss, the intervals and the
+    evidence."""
+    offsets = np.array([-2.0, -1.0, 0.0, 1.0, 2.0]) * step
+    centre_loss = evaluate(centre, phase)
+    profiles = {}
+    for i in free:
+        values = []
+        for d in offsets:
+            point = centre.copy()
+            point[i] += d
+            values.append(centre_loss if d == 0 else evaluate(point, phase))
+        profiles[i] = np.array(values)
+    lowest = min(centre_loss, *(p.min() for p in profiles.values()))
+    threshold = (1.0 + tolerance) * lowest
+    x, loss = centre.copy(), centre_loss
+    for i, values in profiles.items():
+        if values.min() < loss:
+            x, loss = centre.copy(), float(values.min())
+            x[i] += offsets[int(np.argmin(values))]
+    intervals, unbounded = {}, []
+    for i, values in profiles.items():
+        span = parabola_region(offsets, values, threshold)
+        if span is None:
+            unbounded.append(names[i])
         low, high = (box[0][i], box[1][i]) if span is None else (centre[i] + span[0], centre[i] + span[1])
         low, high = min(max(low, box[0][i]), x[i]), max(min(high, box[1][i]), x[i])
         intervals[names[i]] = Interval(float(np.exp(x[i])), float(np.exp(low)), float(np.exp(high)),
                                        float((high - low) / (2 * Z95)))
-    free_names = [names[i] for i in free]
-    evidence = {"loss": float(values[best]), "threshold": float(threshold), "design_step_log": step,
-                "design_points": len(points), "gradient_log": dict(zip(free_names, g.tolist(), strict=True)),
-                "curvature_log": H.tolist(), "covariance_log": covariance.tolist(),
-                "unbounded": [n for n, span in zip(free_names, region, strict=True) if span is None]}
-    return x, float(values[best]), intervals, evidence
+    evidence = {"loss": loss, "threshold": threshold, "profile_offsets_log": offsets.tolist(),
+                "profiles": {names[i]: v.tolist() for i, v in profiles.items()}, "unbounded": unbounded}
+    return x, loss, intervals, evidence
 
 
 def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Sequence[str], *, evaluations: int,
-             step: float, design_step: float, tolerance: float, box: tuple[np.ndarray, np.ndarray]) -> Estimate:
-    """Nelder-Mead from ``start`` on every frame, then intervals from the loss' curvature. Parameters the recording
+             step: float, profile_step: float, tolerance: float, box: tuple[np.ndarray, np.ndarray]) -> Estimate:
+    """Nelder-Mead from ``start`` on every frame, then intervals from profiles of the loss. Parameters the recording
     does not determine (interval wider than a factor 4) and whose initial guess lies inside their interval are held
     at the guess, the others fitted again with them held: a flat direction would otherwise leave them wherever the
     search's noise took them. (A stiff material's moduli, say, are undetermined above some value but matter below
     it: a guess below stays unused.)"""
     everything = list(range(len(start)))
     x, _ = simplex_search(evaluate, start, step, evaluations, "full")
-    x, loss, intervals, evidence = identify(evaluate, x, everything, names, design_step, tolerance, box)
+    x, loss, intervals, evidence = identify(evaluate, x, everything, names, profile_step, tolerance, box)
     # an undetermined parameter goes back to its guess where the guess is as good as any value (inside the interval)
     held = [i for i in everything if not intervals[names[i]].determined
             and intervals[names[i]].low <= np.exp(guess[i]) <= intervals[names[i]].high]
-    result = Estimate(x, loss, intervals, [names[i] for i in held],
-                      {"all_free": evidence, "covariance_log": evidence["covariance_log"]})
+    result = Estimate(x, loss, intervals, [names[i] for i in held], {"all_free": evidence})
     free = [i for i in everything if i not in held]
     if not held or not free:
         return result
@@ -240,8 +215,8 @@ def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Se
 
     y, _ = simplex_search(partial, fixed[free], step, max(evaluations // 2, 1), "held")
     fixed[free] = y
-    x, loss, free_intervals, evidence = identify(evaluate, fixed, free, names, design_step, tolerance, box,
-                                                 phase="curvature, held")
+    x, loss, free_intervals, evidence = identify(evaluate, fixed, free, names, profile_step, tolerance, box,
+                                                 phase="profile, held")
     for i in held:
         joint = intervals[names[i]]
         value = float(np.exp(guess[i]))
@@ -249,7 +224,4 @@ def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Se
     intervals.update(free_intervals)
     result.log_values, result.loss, result.intervals = x, loss, intervals
     result.evidence["held_at_guess"] = evidence
-    covariance = np.diag([intervals[n].sigma_log ** 2 for n in names])
-    covariance[np.ix_(free, free)] = evidence["covariance_log"]
-    result.evidence["covariance_log"] = covariance.tolist()
     return result

@@ -22,11 +22,11 @@ def test_tiny_report_end_to_end(workflow):
         history = list(csv.DictReader(f))
     phases = [h["phase"] for h in history]
     assert phases[:9] == ["survey"] * 8 + ["velocity"]  # 8 survey points, then the initial velocity
-    assert phases.index("full") < phases.index("curvature")
+    assert phases.index("full") < phases.index("profile")
     assert {"loss", "best_loss", "mu", "tau_y", "vx"} <= set(history[0])
     held = [n for n, p in params["parameters"].items() if p["held_at_initial_guess"]]
     assert held == [n for n, p in params["parameters"].items() if not p["determined"]]
-    last = {"held", "curvature, held"} if held else {"full", "curvature"}
+    last = {"held", "profile, held"} if held else {"full", "profile"}
     best = min(float(h["loss"]) for h in history if h["phase"] in last)
     assert float(params["final_loss"]) == best  # the reported point is the best of the last search
     # finished stages leave no checkpoint or stored evaluations behind
