@@ -25,7 +25,7 @@ from scipy.optimize import minimize
 from scipy.stats import qmc
 
 from rheo.fit.observations import Observations
-from rheo.fit.uncertainty import Z95, Interval
+from rheo.fit.uncertainty import Evaluate, Interval, profile_intervals
 from rheo.io import write_atomic
 from rheo.render.silhouette import coverage
 
@@ -61,11 +61,6 @@ class SilhouetteTarget:
                 out[k - 1, i] = 0.5 * (to_mask + to_simulated)
         return out
 
-    def residuals(self, positions: Sequence[np.ndarray], spacing: float) -> list[np.ndarray]:
-        """Covered fraction minus mask on the focus pixels, one array per image (frame 1 .. frames, view)."""
-        return [coverage(view.camera, positions[k], spacing).ravel()[view.focus] - view.masks[k][view.focus]
-                for k in range(1, self.frames + 1) for view in self.obs.views]
-
 
 class EvaluationLog:
     """Objective values stored by phase and point, in ``path`` under ``key`` (the fit's inputs and settings): a
@@ -95,23 +90,19 @@ class EvaluationLog:
         return record["loss"]
 
 
-def survey(evaluate: Callable[[np.ndarray, str], float], centre: np.ndarray, half_width: float, samples: int,
-           seed: int = 0, progress: Callable[[], None] | None = None) -> tuple[np.ndarray, float]:
+def survey(evaluate: Evaluate, centre: np.ndarray, half_width: float, samples: int,
+           seed: int = 0) -> tuple[np.ndarray, float]:
     """The best of ``samples`` scrambled-Sobol points in the box centre +- half_width (log units); the centre is the
     first point."""
     count = max(samples - 1, 0)
     unit = qmc.Sobol(len(centre), seed=seed).random_base2(max(int(np.ceil(np.log2(max(count, 1)))), 0))[:count]
     points = np.r_[centre[None, :], centre + (2.0 * unit - 1.0) * half_width]
-    values = []
-    for x in points:
-        values.append(evaluate(x, "survey"))
-        if progress:
-            progress()
+    values = [evaluate(x, "survey") for x in points]
     best = int(np.argmin(values))
     return points[best], values[best]
 
 
-def simplex_search(evaluate: Callable[[np.ndarray, str], float], start: np.ndarray, step: float, evaluations: int,
+def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float, evaluations: int,
                    phase: str, tolerance: float = 0.01) -> tuple[np.ndarray, float]:
     """Nelder-Mead from ``start`` with an initial simplex of ``step`` (log units) along each axis, for at most
     ``evaluations`` evaluations or until the simplex is within ``tolerance`` (log units)."""
@@ -121,19 +112,6 @@ def simplex_search(evaluate: Callable[[np.ndarray, str], float], start: np.ndarr
                                "fatol": 1e-9})
     return result.x, float(result.fun)
 
-
-def parabola_region(offsets: np.ndarray, values: np.ndarray, threshold: float) -> tuple[float, float] | None:
-    """The range of offsets where the parabola fitted to (offsets, values) stays below ``threshold``; None where it
-    does not curve upwards (the loss does not bound the parameter)."""
-    a, b, c = np.polynomial.polynomial.polyfit(offsets, values, 2)
-    if c <= 0:
-        return None
-    vertex = -b / (2 * c)
-    half = np.sqrt(max(threshold - (a + b * vertex + c * vertex**2), 0.0) / c)
-    return vertex - half, vertex + half
-
-
-Evaluate = Callable[[np.ndarray, str], float]
 
 
 @dataclass
@@ -148,46 +126,6 @@ class Estimate:
     evidence: dict = field(default_factory=dict)
 
 
-def identify(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int], names: Sequence[str], step: float,
-             tolerance: float, box: tuple[np.ndarray, np.ndarray], phase: str = "profile"
-             ) -> tuple[np.ndarray, float, dict[str, Interval], dict]:
-    """Intervals of the ``free`` parameters from profiles of the loss along each of them (the others at
-    ``centre``; offsets -2, -1, 1, 2 times ``step`` in log units): the range where a parabola through the profile
-    stays within ``tolerance`` (relative) of the lowest loss seen, clipped to ``box`` (the whole box where the
-    profile does not curve upwards). A parabola over a wide step smooths the roughness pixel edges give the loss,
-    which would make a local Hessian meaningless. Returns the best point seen, its loss, the intervals and the
-    evidence."""
-    offsets = np.array([-2.0, -1.0, 0.0, 1.0, 2.0]) * step
-    centre_loss = evaluate(centre, phase)
-    profiles = {}
-    for i in free:
-        values = []
-        for d in offsets:
-            point = centre.copy()
-            point[i] += d
-            values.append(centre_loss if d == 0 else evaluate(point, phase))
-        profiles[i] = np.array(values)
-    lowest = min(centre_loss, *(p.min() for p in profiles.values()))
-    threshold = (1.0 + tolerance) * lowest
-    x, loss = centre.copy(), centre_loss
-    for i, values in profiles.items():
-        if values.min() < loss:
-            x, loss = centre.copy(), float(values.min())
-            x[i] += offsets[int(np.argmin(values))]
-    intervals, unbounded = {}, []
-    for i, values in profiles.items():
-        span = parabola_region(offsets, values, threshold)
-        if span is None:
-            unbounded.append(names[i])
-        low, high = (box[0][i], box[1][i]) if span is None else (centre[i] + span[0], centre[i] + span[1])
-        low, high = min(max(low, box[0][i]), x[i]), max(min(high, box[1][i]), x[i])
-        intervals[names[i]] = Interval(float(np.exp(x[i])), float(np.exp(low)), float(np.exp(high)),
-                                       float((high - low) / (2 * Z95)))
-    evidence = {"loss": loss, "threshold": threshold, "profile_offsets_log": offsets.tolist(),
-                "profiles": {names[i]: v.tolist() for i, v in profiles.items()}, "unbounded": unbounded}
-    return x, loss, intervals, evidence
-
-
 def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Sequence[str], *, evaluations: int,
              step: float, profile_step: float, tolerance: float, box: tuple[np.ndarray, np.ndarray]) -> Estimate:
     """Nelder-Mead from ``start`` on every frame, then intervals from profiles of the loss. Parameters the recording
@@ -197,7 +135,7 @@ def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Se
     it: a guess below stays unused.)"""
     everything = list(range(len(start)))
     x, _ = simplex_search(evaluate, start, step, evaluations, "full")
-    x, loss, intervals, evidence = identify(evaluate, x, everything, names, profile_step, tolerance, box)
+    x, loss, intervals, evidence = profile_intervals(evaluate, x, everything, names, profile_step, tolerance, box)
     # an undetermined parameter goes back to its guess where the guess is as good as any value (inside the interval)
     held = [i for i in everything if not intervals[names[i]].determined
             and intervals[names[i]].low <= np.exp(guess[i]) <= intervals[names[i]].high]
@@ -215,7 +153,7 @@ def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Se
 
     y, _ = simplex_search(partial, fixed[free], step, max(evaluations // 2, 1), "held")
     fixed[free] = y
-    x, loss, free_intervals, evidence = identify(evaluate, fixed, free, names, profile_step, tolerance, box,
+    x, loss, free_intervals, evidence = profile_intervals(evaluate, fixed, free, names, profile_step, tolerance, box,
                                                  phase="profile, held")
     for i in held:
         joint = intervals[names[i]]

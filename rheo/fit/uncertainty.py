@@ -1,15 +1,16 @@
-"""Approximate 95 % intervals of fitted parameters from the loss' curvature (Gauss-Newton / Laplace).
+"""Approximate 95 % intervals of fitted parameters, from profiles of the loss.
 
-The residuals are rendered-minus-observed values of every image (frame and view) on fixed pixels. Residuals within
-one image are correlated (a misplaced edge moves many pixels together), so the covariance is the cluster-robust
-sandwich A^-1 B A^-1 with A = J^T J and B the sum over images of (J_c^T r_c)(J_c^T r_c)^T, rather than
-sigma^2 A^-1, which would treat every pixel as independent and be far too confident. The Jacobian comes from central
-differences of the log-parameters (forward simulations only).
+The fit's model is never exact (particles instead of a continuum, disc silhouettes instead of the camera's), so
+the loss has a floor well above any noise; materials whose loss lies within a tolerance of the best (the model's
+own error, measured on virtual experiments where the truth is known) cannot be told apart. The interval of a
+parameter is the range along it where the loss stays within that tolerance: from a parabola fitted through the
+loss at -2, -1, 0, 1, 2 steps, which smooths the roughness pixel edges give the loss (a local Hessian would be
+meaningless there). The other parameters stay at the optimum (a conditional profile: correlations are not
+included).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -32,36 +33,55 @@ class Interval:
         return self.high / self.low < DETERMINED_SPAN
 
 
-def laplace_intervals(residuals: Callable[[np.ndarray], list[np.ndarray]], log_values: np.ndarray,
-                      names: Sequence[str], step: float = 0.05) -> tuple[dict[str, Interval], dict]:
-    """95 % intervals of the parameters ``names`` fitted at ``log_values``, from ``residuals(log_values)`` (one
-    array per image), and the evidence behind them: Jacobian norms, the loss at the optimum, how much the loss grows
-    when each parameter is doubled (Gauss-Newton model), the covariance and correlations of the log-parameters."""
-    log_values = np.asarray(log_values, dtype=np.float64)
-    base = residuals(log_values)
-    columns = []
-    for i in range(len(log_values)):
-        delta = np.zeros_like(log_values)
-        delta[i] = step
-        plus, minus = residuals(log_values + delta), residuals(log_values - delta)
-        columns.append([(p - m) / (2 * step) for p, m in zip(plus, minus, strict=True)])
-    jacobians = [np.stack(per_image, axis=1) for per_image in zip(*columns, strict=True)]  # per image (values, p)
-    A = sum(J.T @ J for J in jacobians)
-    scores = np.stack([J.T @ r for J, r in zip(jacobians, base, strict=True)])  # one score per image
-    B = scores.T @ scores
-    A_inv = np.linalg.pinv(A, rcond=1e-10)
-    covariance = A_inv @ B @ A_inv
-    loss = float(sum(r @ r for r in base))
-    intervals, doubling = {}, {}
-    for i, name in enumerate(names):
-        sigma = math.sqrt(max(covariance[i, i], 0.0)) if A[i, i] > 0 else math.inf
-        value = math.exp(float(log_values[i]))
-        spread = math.exp(min(Z95 * sigma, 700.0))
-        intervals[name] = Interval(value, value / spread, value * spread, sigma)
-        doubling[name] = float(A[i, i] * math.log(2.0) ** 2 / max(loss, 1e-30))
-    scale = np.sqrt(np.outer(np.diag(covariance), np.diag(covariance))) + 1e-300
-    evidence = {"loss": loss, "images": len(base), "step_log": step,
-                "jacobian_norm": {n: float(math.sqrt(A[i, i])) for i, n in enumerate(names)},
-                "loss_increase_if_doubled": doubling, "covariance_log": covariance.tolist(),
-                "correlation": (covariance / scale).round(3).tolist()}
-    return intervals, evidence
+def parabola_region(offsets: np.ndarray, values: np.ndarray, threshold: float) -> tuple[float, float] | None:
+    """The range of offsets where the parabola fitted to (offsets, values) stays below ``threshold``; None where it
+    does not curve upwards (the loss does not bound the parameter)."""
+    a, b, c = np.polynomial.polynomial.polyfit(offsets, values, 2)
+    if c <= 0:
+        return None
+    vertex = -b / (2 * c)
+    half = np.sqrt(max(threshold - (a + b * vertex + c * vertex**2), 0.0) / c)
+    return vertex - half, vertex + half
+
+
+Evaluate = Callable[[np.ndarray, str], float]  # loss at a point of log-parameters, in a named phase
+
+
+def profile_intervals(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int], names: Sequence[str], step: float,
+                      tolerance: float, box: tuple[np.ndarray, np.ndarray], phase: str = "profile"
+                      ) -> tuple[np.ndarray, float, dict[str, Interval], dict]:
+    """Intervals of the ``free`` parameters from profiles of the loss along each of them (the others at
+    ``centre``; offsets -2, -1, 1, 2 times ``step`` in log units): the range where a parabola through the profile
+    stays within ``tolerance`` (relative) of the lowest loss seen, clipped to ``box`` (the whole box where the
+    profile does not curve upwards). A parabola over a wide step smooths the roughness pixel edges give the loss,
+    which would make a local Hessian meaningless. Returns the best point seen, its loss, the intervals and the
+    evidence."""
+    offsets = np.array([-2.0, -1.0, 0.0, 1.0, 2.0]) * step
+    centre_loss = evaluate(centre, phase)
+    profiles = {}
+    for i in free:
+        values = []
+        for d in offsets:
+            point = centre.copy()
+            point[i] += d
+            values.append(centre_loss if d == 0 else evaluate(point, phase))
+        profiles[i] = np.array(values)
+    lowest = min(centre_loss, *(p.min() for p in profiles.values()))
+    threshold = (1.0 + tolerance) * lowest
+    x, loss = centre.copy(), centre_loss
+    for i, values in profiles.items():
+        if values.min() < loss:
+            x, loss = centre.copy(), float(values.min())
+            x[i] += offsets[int(np.argmin(values))]
+    intervals, unbounded = {}, []
+    for i, values in profiles.items():
+        span = parabola_region(offsets, values, threshold)
+        if span is None:
+            unbounded.append(names[i])
+        low, high = (box[0][i], box[1][i]) if span is None else (centre[i] + span[0], centre[i] + span[1])
+        low, high = min(max(low, box[0][i]), x[i]), max(min(high, box[1][i]), x[i])
+        intervals[names[i]] = Interval(float(np.exp(x[i])), float(np.exp(low)), float(np.exp(high)),
+                                       float((high - low) / (2 * Z95)))
+    evidence = {"loss": loss, "threshold": threshold, "profile_offsets_log": offsets.tolist(),
+                "profiles": {names[i]: v.tolist() for i, v in profiles.items()}, "unbounded": unbounded}
+    return x, loss, intervals, evidence

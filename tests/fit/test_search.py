@@ -4,7 +4,8 @@ undetermined parameters, and replaying stored evaluations."""
 import numpy as np
 import pytest
 
-from rheo.fit.search import EvaluationLog, estimate, parabola_region, simplex_search, survey
+from rheo.fit.search import EvaluationLog, estimate, simplex_search, survey
+from rheo.fit.uncertainty import parabola_region
 
 
 def test_parabola_region_is_where_the_parabola_stays_below_the_threshold():
