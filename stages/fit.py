@@ -30,7 +30,8 @@ problem = build_problem(exp, obs, smk.input.seed)
 names = problem.names
 target = SilhouetteTarget(obs, obs.frames - 1)
 VELOCITY_STEP = 0.05  # m/s, the initial simplex of the velocity refinement
-guess = log_values(initial_guess(exp), names).numpy()
+initial = initial_guess(exp)
+guess = log_values(initial, names).numpy()
 half_width = np.log(settings["warmup"]["box"])
 box = (guess - half_width, guess + half_width)
 output = Path(smk.output[0])
@@ -95,7 +96,7 @@ else:
     params = {}
     for name, interval in result.intervals.items():
         entry = {"value": interval.value, "ci95": [interval.low, interval.high], "determined": interval.determined,
-                 "held_at_initial_guess": name in result.held, "initial": float(np.exp(guess[names.index(name)]))}
+                 "held_at_initial_guess": name in result.held, "initial": initial[name]}
         if name in truth:
             entry.update(truth=truth[name], error=interval.value / truth[name] - 1.0)
         params[name] = entry

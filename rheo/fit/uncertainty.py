@@ -33,15 +33,20 @@ class Interval:
         return self.high / self.low < DETERMINED_SPAN
 
 
-def parabola_region(offsets: np.ndarray, values: np.ndarray, threshold: float) -> tuple[float, float] | None:
-    """The range of offsets where the parabola fitted to (offsets, values) stays below ``threshold``; None where it
-    does not curve upwards (the loss does not bound the parameter)."""
+def parabola_region(offsets: np.ndarray, values: np.ndarray, threshold: float) -> tuple[float, float]:
+    """The range of offsets where the parabola fitted to (offsets, values) stays below ``threshold``. Where it does
+    not curve upwards, the range of the sampled offsets below the threshold, unbounded (infinite) on each side where
+    the outermost sample is still below it."""
     a, b, c = np.polynomial.polynomial.polyfit(offsets, values, 2)
-    if c <= 0:
-        return None
-    vertex = -b / (2 * c)
-    half = np.sqrt(max(threshold - (a + b * vertex + c * vertex**2), 0.0) / c)
-    return vertex - half, vertex + half
+    if c > 0:
+        vertex = -b / (2 * c)
+        half = np.sqrt(max(threshold - (a + b * vertex + c * vertex**2), 0.0) / c)
+        return vertex - half, vertex + half
+    below = offsets[values <= threshold]
+    if not len(below):
+        best = offsets[int(np.argmin(values))]
+        return best, best
+    return (-np.inf if values[0] <= threshold else below.min(), np.inf if values[-1] <= threshold else below.max())
 
 
 Evaluate = Callable[[np.ndarray, str], float]  # loss at a point of log-parameters, in a named phase
@@ -52,8 +57,8 @@ def profile_intervals(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int
                       ) -> tuple[np.ndarray, float, dict[str, Interval], dict]:
     """Intervals of the ``free`` parameters from profiles of the loss along each of them (the others at
     ``centre``; offsets -2, -1, 1, 2 times ``step`` in log units): the range where a parabola through the profile
-    stays within ``tolerance`` (relative) of the lowest loss seen, clipped to ``box`` (the whole box where the
-    profile does not curve upwards). A parabola over a wide step smooths the roughness pixel edges give the loss,
+    stays within ``tolerance`` (relative) of the lowest loss seen, clipped to ``box`` (up to the box's edge on a
+    side where the profile stays low). A parabola over a wide step smooths the roughness pixel edges give the loss,
     which would make a local Hessian meaningless. Returns the best point seen, its loss, the intervals and the
     evidence."""
     offsets = np.array([-2.0, -1.0, 0.0, 1.0, 2.0]) * step
@@ -76,9 +81,9 @@ def profile_intervals(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int
     intervals, unbounded = {}, []
     for i, values in profiles.items():
         span = parabola_region(offsets, values, threshold)
-        if span is None:
+        if not np.isfinite(span).all():
             unbounded.append(names[i])
-        low, high = (box[0][i], box[1][i]) if span is None else (centre[i] + span[0], centre[i] + span[1])
+        low, high = centre[i] + span[0], centre[i] + span[1]
         low, high = min(max(low, box[0][i]), x[i]), max(min(high, box[1][i]), x[i])
         intervals[names[i]] = Interval(float(np.exp(x[i])), float(np.exp(low)), float(np.exp(high)),
                                        float((high - low) / (2 * Z95)))

@@ -16,7 +16,9 @@ def test_parabola_region_is_where_the_parabola_stays_below_the_threshold():
     bottom = 1.0 + 0.5 * (vertex - 0.1) + 3.0 * (vertex - 0.1) ** 2
     half = np.sqrt((1.2 - bottom) / 3.0)
     assert low == pytest.approx(vertex - half) and high == pytest.approx(vertex + half)
-    assert parabola_region(offsets, 1.0 - offsets**2, 1.2) is None  # curving downwards: no bound
+    # not curving upwards: the sampled range below the threshold, open on the side where the loss keeps falling
+    assert parabola_region(offsets, 1.0 - offsets**2, 0.99) == (-np.inf, np.inf)
+    assert parabola_region(offsets, 1.0 - offsets, 1.1) == (0.0, np.inf)
 
 
 def test_survey_and_simplex_find_the_minimum_of_a_curved_valley():
