@@ -131,7 +131,7 @@ def render(name: str, params: dict, sections: list[tuple[str, str]], config: dic
             table_tag(header, rows, classes)]
     undetermined = [SYMBOLS.get(k, k) for k, p in params["parameters"].items() if not p["determined"]]
     body.append(f"<p>Intervals: the materials whose loss lies within {params['tolerance']:.0%} of the best fit's (the "
-                "fit model's own error), from a quadratic fitted to the loss around the optimum.</p>")
+                "fit model's own error), along each parameter with the others at the optimum.</p>")
     if undetermined:
         body.append("<p>Not determined by this recording: " + ", ".join(undetermined) + " (the interval spans more "
                     "than a factor 4: the loss barely changes along it). Those whose initial guess lies inside "
