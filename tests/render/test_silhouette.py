@@ -4,18 +4,7 @@ import numpy as np
 import pytest
 
 from rheo.render.silhouette import silhouette
-from rheo.vision.cameras import Camera
-
-
-def look_at(eye, target):
-    forward = (target - eye) / np.linalg.norm(target - eye)
-    right = np.cross(forward, [0.0, 1.0, 0.0])
-    right /= np.linalg.norm(right)
-    down = np.cross(forward, right)
-    c2w = np.eye(4)
-    c2w[:3, :3] = np.stack([right, down, forward], axis=1)
-    c2w[:3, 3] = eye
-    return c2w
+from rheo.vision.cameras import Camera, look_at
 
 
 @pytest.mark.parametrize("spacing", [0.01, 0.02])
