@@ -1,5 +1,6 @@
-"""Fitting constitutive parameters (and the initial velocity) to recordings: simulate the seed particles, render them
-with the particle-field renderer, compare with the matted frames, and descend the gradient.
+"""An experiment's inverse problem: the seed particles, the simulator and the observations, with the differentiable
+rendering loss (particle-field renderer against the matted frames) and Adam phases that descend it (the velocity
+stage); the material itself is searched on silhouettes (rheo.fit.search).
 
 Parameters are fitted as logarithms, in the experiment's convention: PAC-NeRF's (mu, lam, sigma_y, eta; n = 1,
 tau_y = sigma_y / sqrt(3), K = eta / 2) or rheo's (mu, lam, tau_y, K, n).
