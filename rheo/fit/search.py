@@ -103,11 +103,15 @@ def survey(evaluate: Evaluate, centre: np.ndarray, half_width: float, samples: i
 
 
 def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float, evaluations: int,
-                   phase: str, tolerance: float = 0.01) -> tuple[np.ndarray, float]:
+                   phase: str, tolerance: float = 0.01,
+                   box: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float]:
     """Nelder-Mead from ``start`` with an initial simplex of ``step`` (log units) along each axis, for at most
-    ``evaluations`` evaluations or until the simplex is within ``tolerance`` (log units)."""
+    ``evaluations`` evaluations or until the simplex is within ``tolerance`` (log units), inside ``box`` if given."""
     simplex = start + np.r_[np.zeros((1, len(start))), step * np.eye(len(start))]
-    result = minimize(lambda x: evaluate(x, phase), start, method="Nelder-Mead",
+    bounds = None if box is None else list(zip(box[0], box[1], strict=True))
+    if bounds is not None:
+        simplex = np.clip(simplex, box[0], box[1])
+    result = minimize(lambda x: evaluate(x, phase), start, method="Nelder-Mead", bounds=bounds,
                       options={"initial_simplex": simplex, "maxfev": evaluations, "xatol": tolerance,
                                "fatol": 1e-9})
     return result.x, float(result.fun)
@@ -128,13 +132,14 @@ class Estimate:
 
 def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Sequence[str], *, evaluations: int,
              step: float, profile_step: float, tolerance: float, box: tuple[np.ndarray, np.ndarray]) -> Estimate:
-    """Nelder-Mead from ``start`` on every frame, then intervals from profiles of the loss. Parameters the recording
+    """Nelder-Mead from ``start`` on every frame (inside the survey's ``box``), then intervals from profiles of the
+    loss. Parameters the recording
     does not determine (interval wider than a factor 4) and whose initial guess lies inside their interval are held
     at the guess, the others fitted again with them held: a flat direction would otherwise leave them wherever the
     search's noise took them. (A stiff material's moduli, say, are undetermined above some value but matter below
     it: a guess below stays unused.)"""
     everything = list(range(len(start)))
-    x, _ = simplex_search(evaluate, start, step, evaluations, "full")
+    x, _ = simplex_search(evaluate, start, step, evaluations, "full", box=box)
     x, loss, intervals, evidence = profile_intervals(evaluate, x, everything, names, profile_step, tolerance, box)
     # an undetermined parameter goes back to its guess where the guess is as good as any value (inside the interval)
     held = [i for i in everything if not intervals[names[i]].determined
@@ -151,7 +156,8 @@ def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Se
         z[free] = y
         return evaluate(z, phase)
 
-    y, _ = simplex_search(partial, fixed[free], step, max(evaluations // 2, 1), "held")
+    y, _ = simplex_search(partial, fixed[free], step, max(evaluations // 2, 1), "held",
+                          box=(box[0][free], box[1][free]))
     fixed[free] = y
     x, loss, free_intervals, evidence = profile_intervals(evaluate, fixed, free, names, profile_step, tolerance, box,
                                                  phase="profile, held")

@@ -90,3 +90,16 @@ def test_an_interrupted_search_replays_its_stored_evaluations(tmp_path):
     assert np.array_equal(x_resumed, x_fresh)
     assert calls_after_resume == len(calls) - 25  # the first 25 came from the file
     assert len(EvaluationLog(path, "other key").records) == 0  # other inputs: nothing replayed
+
+
+def test_the_simplex_stays_inside_its_box():
+    seen = []
+
+    def evaluate(x, phase):
+        seen.append(x.copy())
+        return float(np.sum((x - 3.0) ** 2))  # the minimum lies outside the box
+
+    box = (np.zeros(2), np.ones(2))
+    x, _ = simplex_search(evaluate, np.full(2, 0.5), 0.2, 200, "full", tolerance=1e-4, box=box)
+    assert np.all((np.array(seen) >= 0.0) & (np.array(seen) <= 1.0))
+    assert np.allclose(x, 1.0, atol=1e-3)
