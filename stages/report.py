@@ -10,7 +10,7 @@ import torch
 
 from rheo.fit.inverse import build_problem, initial_guess, log_values, simulator_parameters
 from rheo.fit.observations import load
-from rheo.fit.uncertainty import Z95
+from rheo.fit.uncertainty import Interval
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import (
     SYMBOLS,
@@ -73,7 +73,7 @@ sections.append(("Every view, animated", "".join(animations)))
 
 # the flow curve, with a band from the parameters' intervals (independent normal log-parameters)
 mean = log_values({k: p["value"] for k, p in params["parameters"].items()}, names).numpy()
-covariance = np.diag([(np.log(p["ci95"][1] / p["ci95"][0]) / (2 * Z95)) ** 2 for p in params["parameters"].values()])
+covariance = np.diag([Interval(p["value"], *p["ci95"]).sigma_log ** 2 for p in params["parameters"].values()])
 rng = np.random.default_rng(0)
 # an undetermined parameter's variance is huge: draws beyond a factor e^4 (about 55) of the value are clipped there
 draws = np.clip(rng.multivariate_normal(mean, covariance, size=400, check_valid="ignore"), mean - 4.0, mean + 4.0)

@@ -19,7 +19,7 @@ import numpy as np
 import torch
 from tqdm.auto import tqdm
 
-from rheo.experiments.scene import simulator
+from rheo.experiments.scene import particle_spacing, simulator
 from rheo.geometry.proxy import from_config, voxelize
 from rheo.io import write_atomic_dir
 from rheo.render.lab import FloorBoard, Scene, board_texture, render
@@ -41,7 +41,7 @@ def simulate_truth(exp: dict, progress: bool = True) -> dict:
     """Particle positions at every recorded frame, simulated with the lab's particles per cell."""
     sim_cfg = exp["simulation"]
     sim = simulator(exp, sim_cfg["resolution"])
-    spacing = sim.dx / sim_cfg["particles_per_cell"]
+    spacing = particle_spacing(sim_cfg)
     mesh, _ = from_config(exp["proxy"])
     particles = torch.as_tensor(voxelize(mesh, spacing).particles, dtype=torch.float32)
     frames = sim_cfg["frames"] - 1

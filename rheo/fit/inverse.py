@@ -69,20 +69,16 @@ class Problem:
         return self.sim.rollout(self.positions, v0, frames=frames, frame_dt=float(self.obs.times[1]),
                                 particle_volume=self.spacing**3, material_params=params)
 
-    def frame_residual(self, positions: torch.Tensor, frame: int, rays_per_view: int,
-                       rng: np.random.Generator) -> torch.Tensor:
-        """Rendered minus observed on random rays of every view in one frame: colours (views * rays, 3), or
-        opacities against masks (views * rays,) in silhouette mode."""
+    def frame_loss(self, positions: torch.Tensor, frame: int, rays_per_view: int,
+                   rng: np.random.Generator) -> torch.Tensor:
+        """Mean squared error of one frame over random rays of every view: rendered against observed colours, or
+        opacities against masks in silhouette mode."""
         batch = sample_rays(self.obs, frame, rays_per_view, rng)
         colour = None if self.silhouette else self.colour
         rgb, opacity = render_particles(positions.float(), self.density, colour, self.spacing, batch.origins,
                                         batch.dirs, WHITE, anchor=self.anchor)
-        return opacity - batch.masks if self.silhouette else rgb - batch.colours
-
-    def frame_loss(self, positions: torch.Tensor, frame: int, rays_per_view: int,
-                   rng: np.random.Generator) -> torch.Tensor:
-        """Mean squared error of one frame over random rays of every view."""
-        return torch.mean(self.frame_residual(positions, frame, rays_per_view, rng) ** 2)
+        residual = opacity - batch.masks if self.silhouette else rgb - batch.colours
+        return torch.mean(residual**2)
 
     def loss(self, log_values: torch.Tensor, v0: torch.Tensor, frames: int, rays_per_view: int,
              rng: np.random.Generator) -> torch.Tensor:

@@ -164,7 +164,7 @@ def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Se
     for i in held:
         joint = intervals[names[i]]
         value = float(np.exp(guess[i]))
-        intervals[names[i]] = Interval(value, min(joint.low, value), max(joint.high, value), joint.sigma_log)
+        intervals[names[i]] = Interval(value, min(joint.low, value), max(joint.high, value))
     intervals.update(free_intervals)
     result.log_values, result.loss, result.intervals = x, loss, intervals
     result.evidence["held_at_guess"] = evidence

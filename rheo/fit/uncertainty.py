@@ -26,11 +26,15 @@ class Interval:
     value: float
     low: float
     high: float
-    sigma_log: float
 
     @property
     def determined(self) -> bool:
         return self.high / self.low < DETERMINED_SPAN
+
+    @property
+    def sigma_log(self) -> float:
+        """The standard deviation of the normal log-parameter whose 95 % interval this is."""
+        return float(np.log(self.high / self.low) / (2 * Z95))
 
 
 def parabola_region(offsets: np.ndarray, values: np.ndarray, threshold: float) -> tuple[float, float]:
@@ -85,8 +89,7 @@ def profile_intervals(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int
             unbounded.append(names[i])
         low, high = centre[i] + span[0], centre[i] + span[1]
         low, high = min(max(low, box[0][i]), x[i]), max(min(high, box[1][i]), x[i])
-        intervals[names[i]] = Interval(float(np.exp(x[i])), float(np.exp(low)), float(np.exp(high)),
-                                       float((high - low) / (2 * Z95)))
+        intervals[names[i]] = Interval(float(np.exp(x[i])), float(np.exp(low)), float(np.exp(high)))
     evidence = {"loss": loss, "threshold": threshold, "profile_offsets_log": offsets.tolist(),
                 "profiles": {names[i]: v.tolist() for i, v in profiles.items()}, "unbounded": unbounded}
     return x, loss, intervals, evidence
