@@ -1,9 +1,10 @@
 """fit: the constitutive parameters on whole-frame silhouettes (rheo.fit.search), in two phases: a warm-up that surveys
 a wide box of log-parameters on the first frames and then refines the initial velocity (the velocity stage's estimate
 was made with the material at its guess, whose different collapse it partly absorbs) at the survey's best material;
-then a simplex search on every frame from there, intervals from the loss' curvature, and parameters the recording
-does not determine held at their initial guess. Every evaluation is stored, so an interrupted fit replays them and
-goes on. The full phase writes params.json and history.csv."""
+then simplex searches on every frame from the survey's best few points, continued from the best of them, intervals
+from profiles of the loss, and parameters the recording does not determine held at their initial guess. Every
+evaluation is stored, so an interrupted fit replays them and goes on. The full phase writes params.json and
+history.csv."""
 
 import csv
 from pathlib import Path
@@ -76,8 +77,9 @@ def history_rows(records: list[dict]) -> list[dict]:
 
 if warmup:
     v0 = np.asarray(read_json(smk.input.velocity)["v0"], dtype=float)
-    x, value = survey(lambda x, phase: evaluate(np.r_[x, v0], phase), guess, half_width,
-                      settings["warmup"]["samples"])
+    points, losses = survey(lambda x, phase: evaluate(np.r_[x, v0], phase), guess, half_width,
+                            settings["warmup"]["samples"])
+    x, value = points[0], losses[0]
     v0, value = simplex_search(lambda v, phase: evaluate(np.r_[x, v], phase), v0, VELOCITY_STEP,
                                settings["warmup"]["velocity_evaluations"], "velocity", tolerance=0.1 * VELOCITY_STEP)
     values = describe(np.r_[x, v0])
@@ -87,9 +89,13 @@ if warmup:
                                           "loss": value, "history": history_rows(evaluations.records)})
 else:
     warm = read_json(smk.input.warmup)
-    start, v0 = np.asarray(warm["log_values"]), np.asarray(warm["v0"])
-    result = estimate(lambda x, phase: evaluate(np.r_[x, v0], phase), start, guess, names,
-                      evaluations=settings["full"]["evaluations"],
+    v0 = np.asarray(warm["v0"])
+    surveyed = sorted((row for row in warm["history"] if row["phase"] == "survey"), key=lambda row: row["loss"])
+    starts = [np.log([row[n] for n in names]) for row in surveyed[:settings["full"]["starts"]]]
+    # the starts' simplex: a quarter of the spacing of the survey's points along each axis
+    start_step = 0.5 * half_width / settings["warmup"]["samples"] ** (1.0 / count)
+    result = estimate(lambda x, phase: evaluate(np.r_[x, v0], phase), starts, guess, names,
+                      evaluations=settings["full"]["evaluations"], start_step=start_step,
                       step=settings["full"]["step"], profile_step=settings["profile_step"],
                       tolerance=settings["tolerance"], box=box)
     truth = read_json(smk.input.truth)["material"]["as_configured"] if hasattr(smk.input, "truth") else {}

@@ -3,7 +3,9 @@
 The loss is the mean symmetric boundary distance (pixels) between the simulated particles' silhouettes and the masks,
 over every view and frame: deterministic (every pixel, no random rays) and informative even far from the optimum,
 where overlap losses are flat. Its minimiser is searched in two steps: a quasi-random survey of a wide box of
-log-parameters around the initial guess, then Nelder-Mead from the best point of the survey. Gradient descent on
+log-parameters around the initial guess, then short Nelder-Mead searches from the survey's best few points (two
+materials may fit nearly equally well in different basins, and the survey's best need not lie in the better one),
+continued from the best of them. Gradient descent on
 the rendering loss stalled in the curved, nearly flat valley between soft-and-strong and stiff-and-weak materials;
 the survey finds the right valley and the simplex needs no gradient of a loss that pixel edges make rough.
 
@@ -91,15 +93,15 @@ class EvaluationLog:
 
 
 def survey(evaluate: Evaluate, centre: np.ndarray, half_width: float, samples: int,
-           seed: int = 0) -> tuple[np.ndarray, float]:
-    """The best of ``samples`` scrambled-Sobol points in the box centre +- half_width (log units); the centre is the
-    first point."""
+           seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """``samples`` scrambled-Sobol points in the box centre +- half_width (log units), the centre first, and their
+    losses, both ordered from the lowest loss."""
     count = max(samples - 1, 0)
     unit = qmc.Sobol(len(centre), seed=seed).random_base2(max(int(np.ceil(np.log2(max(count, 1)))), 0))[:count]
     points = np.r_[centre[None, :], centre + (2.0 * unit - 1.0) * half_width]
-    values = [evaluate(x, "survey") for x in points]
-    best = int(np.argmin(values))
-    return points[best], values[best]
+    values = np.array([evaluate(x, "survey") for x in points])
+    order = np.argsort(values, kind="stable")
+    return points[order], values[order]
 
 
 def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float, evaluations: int,
@@ -117,6 +119,19 @@ def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float, evaluatio
     return result.x, float(result.fun)
 
 
+def multistart_search(evaluate: Evaluate, starts: Sequence[np.ndarray], start_step: float, step: float,
+                      evaluations: int, box: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float]:
+    """Nelder-Mead from each of ``starts`` (initial simplex ``start_step``) with half of ``evaluations`` shared among
+    them, then from the best point found with a fresh simplex of ``step`` and the remaining evaluations."""
+    if len(starts) == 1:
+        return simplex_search(evaluate, starts[0], step, evaluations, "full", box=box)
+    each = evaluations // (2 * len(starts))
+    found = [simplex_search(evaluate, start, start_step, each, f"start {k + 1}", box=box)
+             for k, start in enumerate(starts)]
+    best = min(range(len(found)), key=lambda k: found[k][1])
+    logger.info("best of %d starts: start %d, loss %.5g", len(starts), best + 1, found[best][1])
+    return simplex_search(evaluate, found[best][0], step, evaluations - each * len(starts), "full", box=box)
+
 
 @dataclass
 class Estimate:
@@ -130,16 +145,17 @@ class Estimate:
     evidence: dict = field(default_factory=dict)
 
 
-def estimate(evaluate: Evaluate, start: np.ndarray, guess: np.ndarray, names: Sequence[str], *, evaluations: int,
-             step: float, profile_step: float, tolerance: float, box: tuple[np.ndarray, np.ndarray]) -> Estimate:
-    """Nelder-Mead from ``start`` on every frame (inside the survey's ``box``), then intervals from profiles of the
-    loss. Parameters the recording
+def estimate(evaluate: Evaluate, starts: Sequence[np.ndarray], guess: np.ndarray, names: Sequence[str], *,
+             evaluations: int, start_step: float, step: float, profile_step: float, tolerance: float,
+             box: tuple[np.ndarray, np.ndarray]) -> Estimate:
+    """Nelder-Mead from ``starts`` (``multistart_search``, inside the survey's ``box``), then intervals from profiles
+    of the loss. Parameters the recording
     does not determine (interval wider than a factor 4) and whose initial guess lies inside their interval are held
     at the guess, the others fitted again with them held: a flat direction would otherwise leave them wherever the
     search's noise took them. (A stiff material's moduli, say, are undetermined above some value but matter below
     it: a guess below stays unused.)"""
-    everything = list(range(len(start)))
-    x, _ = simplex_search(evaluate, start, step, evaluations, "full", box=box)
+    everything = list(range(len(guess)))
+    x, _ = multistart_search(evaluate, starts, start_step, step, evaluations, box)
     x, loss, intervals, evidence = profile_intervals(evaluate, x, everything, names, profile_step, tolerance, box)
     # an undetermined parameter goes back to its guess where the guess is as good as any value (inside the interval)
     held = [i for i in everything if not intervals[names[i]].determined

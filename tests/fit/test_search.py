@@ -4,7 +4,7 @@ undetermined parameters, and replaying stored evaluations."""
 import numpy as np
 import pytest
 
-from rheo.fit.search import EvaluationLog, estimate, simplex_search, survey
+from rheo.fit.search import EvaluationLog, estimate, multistart_search, simplex_search, survey
 from rheo.fit.uncertainty import parabola_region
 
 
@@ -32,10 +32,27 @@ def test_survey_and_simplex_find_the_minimum_of_a_curved_valley():
         return loss(x)
 
     guess = np.log([100.0, 10.0])
-    x, value = survey(evaluate, guess, np.log(30.0), 64)
-    assert value < loss(guess)
-    x, value = simplex_search(evaluate, x, 0.2, 300, "full", tolerance=1e-4)
+    points, values = survey(evaluate, guess, np.log(30.0), 64)
+    assert values[0] == min(values) < loss(guess) and np.all(np.diff(values) >= 0)
+    x, _ = simplex_search(evaluate, points[0], 0.2, 300, "full", tolerance=1e-4)
     assert np.allclose(np.exp(x), [1000.0, 50.0], rtol=0.01)
+
+
+def test_searches_from_several_starts_find_the_deeper_of_two_basins():
+    shallow, deep = np.log([30.0, 3.0]), np.log([3000.0, 30.0])
+    phases = []
+
+    def evaluate(x, phase):  # two basins; the first start lies in the shallower one
+        phases.append(phase)
+        return min(0.11 + np.sum((x - shallow) ** 2), 0.10 + np.sum((x - deep) ** 2))
+
+    starts = [shallow + 0.5, deep - 1.0]
+    x, _ = simplex_search(evaluate, starts[0], 0.5, 200, "full", tolerance=1e-4)
+    assert np.allclose(x, shallow, atol=0.01)  # one start alone stays in its basin
+    phases.clear()
+    x, value = multistart_search(evaluate, starts, 0.5, 0.2, 200)
+    assert np.allclose(x, deep, atol=0.01) and value == pytest.approx(0.10, abs=1e-4)
+    assert phases.count("start 1") <= 50 and phases.count("start 2") <= 50 and phases[-1] == "full"
 
 
 def test_a_parameter_the_loss_ignores_is_held_at_its_guess_and_flagged():
@@ -47,8 +64,8 @@ def test_a_parameter_the_loss_ignores_is_held_at_its_guess_and_flagged():
 
     guess = np.log([300.0, 20.0, 7.0])
     box = (guess - np.log(30.0), guess + np.log(30.0))
-    result = estimate(evaluate, guess, guess, ["a", "b", "c"], evaluations=400, step=0.2, profile_step=0.2,
-                      tolerance=0.1, box=box)
+    result = estimate(evaluate, [guess], guess, ["a", "b", "c"], evaluations=400, start_step=1.0, step=0.2,
+                      profile_step=0.2, tolerance=0.1, box=box)
     assert result.held == ["c"]
     assert result.intervals["c"].value == pytest.approx(7.0) and not result.intervals["c"].determined
     for i, name in enumerate("ab"):
