@@ -23,6 +23,7 @@ include: "workflow/rules/fit.smk"
 include: "workflow/rules/diagnose.smk"
 include: "workflow/rules/novel.smk"
 include: "workflow/rules/report.smk"
+include: "workflow/rules/virheometry.smk"
 
 
 rule all:
