@@ -204,9 +204,9 @@ def read_setup(folder: str | Path, scale: float = 1.0) -> Setup:
                  masks=read_masks(folder, *size), start_point=start)
 
 
-def cuboid_overlap(setup: Setup) -> dict[str, float]:
-    """How the initial cuboid, projected through the setup's camera, covers the first silhouette: IoU, the fraction
-    of the cuboid's projection on the silhouette and of the silhouette on it."""
+def container_silhouette(setup: Setup) -> np.ndarray:
+    """The silhouette (H, W) of the material's initial cuboid, which is also the container's: the recordings'
+    silhouettes include the container, so every frame covers it."""
     low, high = setup.cuboid
     corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
     uv, depth = setup.camera.project(corners)
@@ -214,7 +214,13 @@ def cuboid_overlap(setup: Setup) -> dict[str, float]:
         raise SetupError(f"{setup.folder}: the material's cuboid lies (partly) behind the camera")
     projected = np.zeros((setup.camera.height, setup.camera.width), np.uint8)
     cv2.fillConvexPoly(projected, cv2.convexHull(np.round(uv * 16).astype(np.int32)), 1, cv2.LINE_8, shift=4)
-    projected = projected.astype(bool)
+    return projected.astype(bool)
+
+
+def cuboid_overlap(setup: Setup) -> dict[str, float]:
+    """How the initial cuboid, projected through the setup's camera, covers the first silhouette: IoU, the fraction
+    of the cuboid's projection on the silhouette and of the silhouette on it."""
+    projected = container_silhouette(setup)
     mask = setup.masks[0]
     both = float((projected & mask).sum())
     return {"iou": both / max(float((projected | mask).sum()), 1.0),
