@@ -1,0 +1,97 @@
+"""A dam break's silhouettes against a simulated Herschel-Bulkley flow.
+
+The recordings' silhouettes include the container, so the simulated silhouette is the particles' joined with the
+container's; what differs between materials is the material outside it. The loss of a frame is the symmetric mean
+boundary distance (px) between the two, as in the virtual experiments' fit. The first frame's time after the
+release is not known: one rollout is recorded every ``OFFSET_STEP`` seconds, and the offset whose frames (1/fps
+apart) fit best is taken, for every material evaluated.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from rheo.experiments.dam_break import DamBreakScene
+from rheo.experiments.virheometry import container_silhouette
+from rheo.physics import HerschelBulkley
+from rheo.render.silhouette import silhouette
+
+OFFSET_STEP = 1.0 / 240.0  # s
+MOVING_RATE = 0.1  # 1/s: slower particles count as at rest in the shear-rate band
+
+
+def _distance_to(mask: np.ndarray) -> np.ndarray:
+    return cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+
+
+def boundary_distance(simulated: np.ndarray, mask: np.ndarray, to_mask: np.ndarray) -> float:
+    """Half the mean distance (px) of the simulated silhouette's pixels to the mask (``to_mask``: its distance
+    map) plus half that of the mask's pixels to the simulated silhouette."""
+    return 0.5 * (float(to_mask[simulated].mean()) + float(_distance_to(simulated)[mask].mean()))
+
+
+def shear_rates(velocity_gradient: np.ndarray) -> np.ndarray:
+    """Equivalent shear rate sqrt(2 D':D') (1/s) of velocity gradients (..., 3, 3): gamma_dot in simple shear."""
+    strain_rate = 0.5 * (velocity_gradient + np.swapaxes(velocity_gradient, -1, -2))
+    deviatoric = strain_rate - np.trace(strain_rate, axis1=-2, axis2=-1)[..., None, None] * np.eye(3) / 3.0
+    return np.sqrt(2.0 * np.sum(deviatoric**2, axis=(-2, -1)))
+
+
+@dataclass
+class Comparison:
+    """A material's best agreement with one setup: loss (px), the first frame's time after the release (s), and per
+    frame the boundary distance (px) and the IoU of the material outside the container."""
+
+    loss: float
+    offset: float
+    distances: np.ndarray
+    outflow_iou: np.ndarray
+    shear_rates: np.ndarray  # 1/s, of the moving particles over the compared frames
+
+
+class DamBreakTarget:
+    """One setup's silhouettes and its simulated scene; ``max_offset``: the latest time (s) after the release that
+    the first frame may have."""
+
+    def __init__(self, scene: DamBreakScene, max_offset: float, elastic: tuple[float, float]) -> None:
+        self.scene = scene
+        self.setup = scene.setup
+        self.masks = self.setup.masks
+        self.to_mask = [_distance_to(m) for m in self.masks]
+        self.container = container_silhouette(self.setup)
+        self.offsets = round(max_offset / OFFSET_STEP)
+        self.frame_steps = round(1.0 / (self.setup.fps * OFFSET_STEP))
+        if not np.isclose(self.frame_steps * OFFSET_STEP * self.setup.fps, 1.0):
+            raise ValueError(f"{self.setup.folder}: {self.setup.fps} fps is not a whole number of offset steps")
+        self.mu, self.lam = elastic
+
+    def material(self, tau_y: float, K: float, n: float) -> HerschelBulkley:
+        return HerschelBulkley(tau_y=tau_y, K=K, n=n, mu=self.mu, lam=self.lam, density=self.setup.density)
+
+    def compare(self, tau_y: float, K: float, n: float) -> Comparison:
+        frames = len(self.masks)
+        steps = self.offsets + (frames - 1) * self.frame_steps
+        trajectory = self.scene.rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP)
+        positions = trajectory.x.numpy()
+        drawn = {}
+
+        def simulated(step: int) -> np.ndarray:
+            if step not in drawn:
+                drawn[step] = silhouette(self.setup.camera, positions[step], self.scene.spacing) | self.container
+            return drawn[step]
+
+        table = np.array([[boundary_distance(simulated(start + k * self.frame_steps), self.masks[k], self.to_mask[k])
+                           for k in range(frames)] for start in range(self.offsets + 1)])
+        best = int(np.argmin(table.mean(axis=1)))
+        chosen = [simulated(best + k * self.frame_steps) for k in range(frames)]
+        outside = ~self.container
+        iou = np.array([float((s & m & outside).sum()) / max(float(((s | m) & outside).sum()), 1.0)
+                        for s, m in zip(chosen, self.masks, strict=True)])
+        steps_compared = best + self.frame_steps * np.arange(frames)
+        rates = shear_rates(trajectory.C.numpy()[steps_compared]).ravel()
+        return Comparison(float(table[best].mean()), best * OFFSET_STEP, table[best], iou,
+                          rates[rates > MOVING_RATE])
+

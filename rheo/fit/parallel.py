@@ -1,0 +1,56 @@
+"""Loss evaluations on several cores.
+
+Warp's CPU kernels run on one core, so independent simulations (the points of a survey, the setups of a joint fit)
+are spread over worker processes. Each worker builds its objectives once (loading observations, compiling kernels)
+and keeps them; a task names the objective and the point.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+Objective = Callable[[np.ndarray], float]
+_objectives: dict[str, Objective] = {}
+
+
+def _start(build: Callable[[], dict[str, Objective]]) -> None:
+    _objectives.update(build())
+
+
+def _run(name: str, x: np.ndarray) -> float:
+    return float(_objectives[name](x))
+
+
+class Evaluator:
+    """Named objectives evaluated in ``workers`` processes (in this process when ``workers`` is 1). ``build`` must
+    be picklable (a module-level function or a functools.partial of one) and return the objectives by name."""
+
+    def __init__(self, build: Callable[[], dict[str, Objective]], workers: int) -> None:
+        self.workers = workers
+        if workers > 1:
+            self._pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                                             initializer=_start, initargs=(build,))
+        else:
+            self._pool = None
+            self._local = build()
+
+    def map(self, tasks: Sequence[tuple[str, np.ndarray]]) -> list[float]:
+        """The value of every (objective name, point), in order."""
+        if self._pool is None:
+            return [float(self._local[name](x)) for name, x in tasks]
+        futures = [self._pool.submit(_run, name, np.asarray(x)) for name, x in tasks]
+        return [f.result() for f in futures]
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown()
+
+    def __enter__(self) -> Evaluator:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
