@@ -1,8 +1,6 @@
 """virheometry_import: one ViRheometry setup folder in SI units (geometry, walls, density, camera, silhouettes), with
 its camera checked by projecting the material's initial cuboid onto the first silhouette."""
 
-import dataclasses
-
 import numpy as np
 
 from rheo.experiments.virheometry import cuboid_overlap, read_setup
@@ -19,10 +17,7 @@ log.info("%s: %s, H %.3g m, W %.3g m, depth %.3g m, density %.0f kg/m^3, %d fram
          "frame 1: IoU %.3f, %.1f %% of the cuboid on the silhouette", setup.folder, setup.material, setup.height,
          setup.width, setup.depth, setup.density, len(setup.masks), setup.fps, overlap["iou"],
          100 * overlap["cuboid_on_silhouette"])
-write_json_atomic(smk.output.setup, {
-    "material": setup.material, "index": setup.index, "source": str(setup.folder), "units": "SI (m, kg/m^3, Pa, s)",
-    "height": setup.height, "width": setup.width, "depth": setup.depth, "density": setup.density,
-    "walls": [dataclasses.asdict(w) for w in setup.walls], "camera": setup.camera.record(), "fps": setup.fps,
-    "frames": len(setup.masks), "start_point": setup.start_point, "camera_check": overlap})
+write_json_atomic(smk.output.setup, {**setup.record(), "units": "SI (m, kg/m^3, Pa, s)", "frames": len(setup.masks),
+                                     "camera_check": overlap})
 write_atomic(smk.output.masks, lambda p: np.savez_compressed(p, masks=np.stack(setup.masks)))
 save_figure(camera_check_figure(setup, overlap), smk.output.figure)

@@ -9,6 +9,7 @@ x in [0, W], y in [0, H], z between the side walls; the back wall is x = 0 and t
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import re
 import xml.etree.ElementTree as ET
@@ -65,6 +66,21 @@ class Setup:
     def cuboid(self) -> tuple[np.ndarray, np.ndarray]:
         """Corners (low, high) of the material at rest before the gate opens."""
         return np.array([0.0, 0.0, 0.0]), np.array([self.width, self.height, self.depth])
+
+    def record(self) -> dict:
+        """Everything but the masks, JSON-ready."""
+        return {"folder": str(self.folder), "material": self.material, "index": self.index, "height": self.height,
+                "width": self.width, "depth": self.depth, "density": self.density,
+                "walls": [dataclasses.asdict(w) for w in self.walls], "camera": self.camera.record(),
+                "start_point": self.start_point, "fps": self.fps}
+
+    @classmethod
+    def from_record(cls, record: dict, masks: np.ndarray) -> Setup:
+        walls = [StaticBox(tuple(w["low"]), tuple(w["high"]), w["contact"]) for w in record["walls"]]
+        return cls(folder=Path(record["folder"]), material=record["material"], index=record["index"],
+                   height=record["height"], width=record["width"], depth=record["depth"],
+                   density=record["density"], walls=walls, camera=Camera.from_record(record["camera"]),
+                   masks=list(masks), start_point=record["start_point"], fps=record["fps"])
 
 
 def _xml(path: Path, salvage: str | None = None) -> ET.Element:

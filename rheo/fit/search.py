@@ -88,17 +88,36 @@ class EvaluationLog:
             record = {"phase": phase, "x": [float(v) for v in x], "loss": float(objective(x))}
             self.records.append(record)
             self._index[self._point_key(phase, x)] = record
-            write_atomic(self.path, lambda p: p.write_text(json.dumps({"key": self.key, "records": self.records})))
+            self._write()
         return record["loss"]
 
+    def evaluate_many(self, objective: Callable[[list[np.ndarray]], list[float]], points: Sequence[np.ndarray],
+                      phase: str) -> list[float]:
+        """Losses of ``points``, those not stored evaluated together by ``objective`` (on several processes, say)."""
+        todo = [x for x in points if self._point_key(phase, x) not in self._index]
+        if todo:
+            for x, loss in zip(todo, objective(todo), strict=True):
+                record = {"phase": phase, "x": [float(v) for v in x], "loss": float(loss)}
+                self.records.append(record)
+                self._index[self._point_key(phase, x)] = record
+            self._write()
+        return [self._index[self._point_key(phase, x)]["loss"] for x in points]
 
-def survey(evaluate: Evaluate, centre: np.ndarray, half_width: float, samples: int,
-           seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """``samples`` scrambled-Sobol points in the box centre +- half_width (log units), the centre first, and their
-    losses, both ordered from the lowest loss."""
+    def _write(self) -> None:
+        write_atomic(self.path, lambda p: p.write_text(json.dumps({"key": self.key, "records": self.records})))
+
+
+def survey_points(centre: np.ndarray, half_width: float | np.ndarray, samples: int, seed: int = 0) -> np.ndarray:
+    """``samples`` scrambled-Sobol points in the box centre +- half_width (log units), the centre first."""
     count = max(samples - 1, 0)
     unit = qmc.Sobol(len(centre), seed=seed).random_base2(max(int(np.ceil(np.log2(max(count, 1)))), 0))[:count]
-    points = np.r_[centre[None, :], centre + (2.0 * unit - 1.0) * half_width]
+    return np.r_[centre[None, :], centre + (2.0 * unit - 1.0) * half_width]
+
+
+def survey(evaluate: Evaluate, centre: np.ndarray, half_width: float | np.ndarray, samples: int,
+           seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """The ``survey_points`` and their losses, both ordered from the lowest loss."""
+    points = survey_points(centre, half_width, samples, seed)
     values = np.array([evaluate(x, "survey") for x in points])
     order = np.argsort(values, kind="stable")
     return points[order], values[order]

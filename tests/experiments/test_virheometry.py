@@ -1,13 +1,14 @@
 """The ViRheometry importer: the OpenGL camera against its definition, every real setup read and its camera checked
 by projecting the initial cuboid onto the first silhouette, and clear errors for broken folders."""
 
+import json
 import shutil
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from rheo.experiments.virheometry import SetupError, cuboid_overlap, opengl_camera, read_setup
+from rheo.experiments.virheometry import Setup, SetupError, cuboid_overlap, opengl_camera, read_setup
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "virheometry"
 SETUPS = sorted(DATA.glob("ref_*"))
@@ -47,6 +48,12 @@ def test_every_published_setup_reads_and_its_camera_puts_the_cuboid_on_the_first
         # covered
         assert overlap["cuboid_on_silhouette"] > 0.92, folder.name
         assert overlap["iou"] > 0.7, folder.name
+
+
+def test_a_setup_survives_its_record():
+    setup = read_setup(SETUPS[0], scale=0.25)
+    again = Setup.from_record(json.loads(json.dumps(setup.record())), np.stack(setup.masks))
+    assert again.record() == setup.record() and np.array_equal(np.stack(again.masks), np.stack(setup.masks))
 
 
 def test_published_defects_are_repaired_and_said(caplog):

@@ -120,3 +120,18 @@ def test_the_simplex_stays_inside_its_box():
     x, _ = simplex_search(evaluate, np.full(2, 0.5), 0.2, 200, "full", tolerance=1e-4, box=box)
     assert np.all((np.array(seen) >= 0.0) & (np.array(seen) <= 1.0))
     assert np.allclose(x, 1.0, atol=1e-3)
+
+
+def test_points_evaluated_together_are_stored_and_not_evaluated_again(tmp_path):
+    batches = []
+
+    def objective(points):
+        batches.append(len(points))
+        return [float(np.sum(x**2)) for x in points]
+
+    points = [np.array([i, 1.0]) for i in range(4)]
+    log = EvaluationLog(tmp_path / "evaluations.json", "key")
+    assert log.evaluate_many(objective, points[:3], "survey") == [1.0, 2.0, 5.0]
+    again = EvaluationLog(tmp_path / "evaluations.json", "key")
+    assert again.evaluate_many(objective, points, "survey") == [1.0, 2.0, 5.0, 10.0]
+    assert batches == [3, 1]  # only the new point is evaluated after the restart
