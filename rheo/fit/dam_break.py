@@ -9,13 +9,16 @@ apart) fit best is taken, for every material evaluated.
 
 from __future__ import annotations
 
+import json
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import cv2
 import numpy as np
 
-from rheo.experiments.dam_break import DamBreakScene
-from rheo.experiments.virheometry import container_silhouette
+from rheo.experiments.dam_break import DamBreakScene, dam_break_scene
+from rheo.experiments.virheometry import Setup, container_silhouette
 from rheo.physics import HerschelBulkley
 from rheo.render.silhouette import silhouette
 
@@ -43,11 +46,12 @@ def shear_rates(velocity_gradient: np.ndarray) -> np.ndarray:
 @dataclass
 class Comparison:
     """A material's best agreement with one setup: loss (px), the first frame's time after the release (s), and per
-    frame the boundary distance (px) and the IoU of the material outside the container."""
+    frame the boundary distance (px), the silhouettes' IoU and the IoU of the material outside the container."""
 
     loss: float
     offset: float
     distances: np.ndarray
+    iou: np.ndarray
     outflow_iou: np.ndarray
     shear_rates: np.ndarray  # 1/s, of the moving particles over the compared frames
 
@@ -88,10 +92,32 @@ class DamBreakTarget:
         best = int(np.argmin(table.mean(axis=1)))
         chosen = [simulated(best + k * self.frame_steps) for k in range(frames)]
         outside = ~self.container
-        iou = np.array([float((s & m & outside).sum()) / max(float(((s | m) & outside).sum()), 1.0)
+        iou = np.array([float((s & m).sum()) / max(float((s | m).sum()), 1.0)
                         for s, m in zip(chosen, self.masks, strict=True)])
+        outflow = np.array([float((s & m & outside).sum()) / max(float(((s | m) & outside).sum()), 1.0)
+                            for s, m in zip(chosen, self.masks, strict=True)])
         steps_compared = best + self.frame_steps * np.arange(frames)
         rates = shear_rates(trajectory.C.numpy()[steps_compared]).ravel()
-        return Comparison(float(table[best].mean()), best * OFFSET_STEP, table[best], iou,
+        return Comparison(float(table[best].mean()), best * OFFSET_STEP, table[best], iou, outflow,
                           rates[rates > MOVING_RATE])
+
+
+NAMES = ("tau_y", "K", "n")  # the fitted parameters, searched as logarithms
+
+
+def comparisons(setups: dict[str, tuple[str, str]], simulation: dict) -> dict[str, Callable[[np.ndarray], Comparison]]:
+    """For every setup (name: (setup.json, masks.npz) of its import), the comparison of a material given as log
+    (tau_y, K, n) with it; built once per worker process."""
+    objectives = {}
+    for name, (record, masks) in setups.items():
+        with open(record) as f:
+            setup = Setup.from_record(json.load(f), np.load(masks)["masks"])
+        scene = dam_break_scene(setup, simulation["resolution"], simulation["particles_per_cell"])
+        target = DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]))
+        objectives[name] = partial(_compare, target)
+    return objectives
+
+
+def _compare(target: DamBreakTarget, log_values: np.ndarray) -> Comparison:
+    return target.compare(*np.exp(log_values))
 

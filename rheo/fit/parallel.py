@@ -13,7 +13,7 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-Objective = Callable[[np.ndarray], float]
+Objective = Callable[[np.ndarray], object]
 _objectives: dict[str, Objective] = {}
 
 
@@ -21,27 +21,30 @@ def _start(build: Callable[[], dict[str, Objective]]) -> None:
     _objectives.update(build())
 
 
-def _run(name: str, x: np.ndarray) -> float:
-    return float(_objectives[name](x))
+def _run(name: str, x: np.ndarray) -> object:
+    return _objectives[name](x)
 
 
 class Evaluator:
     """Named objectives evaluated in ``workers`` processes (in this process when ``workers`` is 1). ``build`` must
-    be picklable (a module-level function or a functools.partial of one) and return the objectives by name."""
+    be picklable (a module-level function or a functools.partial of one) and return the objectives by name; their
+    values must be picklable."""
 
     def __init__(self, build: Callable[[], dict[str, Objective]], workers: int) -> None:
         self.workers = workers
         if workers > 1:
-            self._pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+            # forked, not spawned: a spawned worker would run the calling script (a Snakemake stage) again
+            method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+            self._pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context(method),
                                              initializer=_start, initargs=(build,))
         else:
             self._pool = None
             self._local = build()
 
-    def map(self, tasks: Sequence[tuple[str, np.ndarray]]) -> list[float]:
+    def map(self, tasks: Sequence[tuple[str, np.ndarray]]) -> list:
         """The value of every (objective name, point), in order."""
         if self._pool is None:
-            return [float(self._local[name](x)) for name, x in tasks]
+            return [self._local[name](x) for name, x in tasks]
         futures = [self._pool.submit(_run, name, np.asarray(x)) for name, x in tasks]
         return [f.result() for f in futures]
 

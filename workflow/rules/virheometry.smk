@@ -26,3 +26,45 @@ rule virheometry_import:
         scale=config["virheometry"]["scale"],
     script:
         "../../stages/virheometry_import.py"
+
+
+def virheometry_setups(material: str) -> list[str]:
+    """The setup folders of a material, by setup index."""
+    folders = sorted(Path(config["virheometry"]["data"]).glob(f"ref_{material}_*_*_*"),
+                     key=lambda p: p.name.rsplit("_", 1)[1])
+    if not folders:
+        raise ValueError(f"{config['virheometry']['data']}: no setup folders ref_{material}_<H>_<W>_<k>")
+    return [p.name for p in folders]
+
+
+def fitted_setups(material: str, fit: str) -> list[str]:
+    """``fit``: all the material's setups (fit) or one of them (fit_setup<k>)."""
+    setups = virheometry_setups(material)
+    if fit == "fit":
+        return setups
+    chosen = [s for s in setups if s.rsplit("_", 1)[1] == fit.removeprefix("fit_setup")]
+    if not chosen:
+        raise ValueError(f"{material}: no setup {fit.removeprefix('fit_setup')} among {setups}")
+    return chosen
+
+
+rule virheometry_fit:
+    input:
+        setups=lambda w: expand("results/virheometry/setups/{setup}/setup.json", setup=fitted_setups(w.material, w.fit)),
+        masks=lambda w: expand("results/virheometry/setups/{setup}/masks.npz", setup=fitted_setups(w.material, w.fit)),
+    output:
+        params="results/virheometry/{material}/{fit}/params.json",
+        history="results/virheometry/{material}/{fit}/history.csv",
+    log:
+        "logs/virheometry/{material}/{fit}.log",
+    benchmark:
+        "benchmarks/virheometry/{material}/{fit}.tsv"
+    wildcard_constraints:
+        material=r"[A-Za-z0-9]+",
+        fit=r"fit|fit_setup[0-9]+",
+    threads: 2
+    params:
+        simulation=config["virheometry"]["simulation"],
+        settings=config["virheometry"]["fit"],
+    script:
+        "../../stages/virheometry_fit.py"

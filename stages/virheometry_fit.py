@@ -1,0 +1,92 @@
+"""virheometry_fit: tau_y, K and n of one material from its dam breaks (all its setups jointly, or one), with the
+first frame's time after the release found for each setup. The survey's points run on every core; each later
+evaluation simulates the setups side by side. Every evaluation is stored, so an interrupted fit resumes."""
+
+import csv
+import time
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from rheo.fit.dam_break import NAMES, comparisons
+from rheo.fit.parallel import Evaluator
+from rheo.fit.search import EvaluationLog, multistart_search, survey_points
+from rheo.fit.uncertainty import profile_intervals
+from rheo.io import write_atomic, write_json_atomic
+from rheo.stage import inputs_key, setup_logging
+
+smk = snakemake  # noqa: F821  (injected by Snakemake)
+log = setup_logging(smk.log[0])
+started = time.time()
+settings, simulation = smk.params.settings, smk.params.simulation
+setups = {Path(record).parent.name: (record, masks)
+          for record, masks in zip(smk.input.setups, smk.input.masks, strict=True)}
+low = np.log([settings[n][0] for n in NAMES])
+high = np.log([settings[n][1] for n in NAMES])
+output = Path(smk.output.params)
+evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
+                            inputs_key([settings, simulation], [*smk.input.setups, *smk.input.masks]))
+bar = tqdm(desc=f"{output.parent.parent.name} {output.parent.name}", unit="evaluation")
+
+
+def describe(x: np.ndarray) -> str:
+    return ", ".join(f"{n} {v:.4g}" for n, v in zip(NAMES, np.exp(x), strict=True))
+
+
+with Evaluator(partial(comparisons, setups, simulation), workers=smk.threads) as evaluator:
+
+    def joint(points: list[np.ndarray]) -> list[float]:
+        """The mean over the setups of each point's loss; all (point, setup) simulations side by side."""
+        results = evaluator.map([(name, x) for x in points for name in setups])
+        losses = [float(np.mean([r.loss for r in results[i * len(setups):(i + 1) * len(setups)]]))
+                  for i in range(len(points))]
+        for x, loss in zip(points, losses, strict=True):
+            bar.update()
+            log.info("evaluation %d: loss %.5g px, %s", bar.n, loss, describe(x))
+        return losses
+
+    def evaluate(x: np.ndarray, phase: str) -> float:
+        return evaluations.evaluate_many(joint, [x], phase)[0]
+
+    points = survey_points(0.5 * (low + high), 0.5 * (high - low), settings["samples"])
+    losses = np.asarray(evaluations.evaluate_many(joint, list(points), "survey"))
+    starts = points[np.argsort(losses, kind="stable")[:settings["starts"]]]
+    # the starts' simplex: a quarter of the spacing of the survey's points along each axis
+    start_step = 0.25 * (high - low).min() / settings["samples"] ** (1.0 / len(NAMES))
+    x, loss = multistart_search(evaluate, list(starts), start_step, settings["step"], settings["evaluations"],
+                                (low, high))
+    x, loss, intervals, evidence = profile_intervals(evaluate, x, range(len(NAMES)), NAMES, settings["profile_step"],
+                                                     settings["tolerance"], (low, high))
+    details = dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))
+bar.close()
+
+rates = np.concatenate([d.shear_rates for d in details.values()])
+band = np.percentile(rates, [5, 95]).tolist() if len(rates) else [None, None]
+keys = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}
+params = {keys[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined}
+          for n, i in intervals.items()}
+for n, i in intervals.items():
+    log.info("%s = %.4g, 95%% interval [%.4g, %.4g]%s", n, i.value, i.low, i.high,
+             "" if i.determined else " (not determined by the recordings)")
+log.info("shear rates reached (5th-95th percentile of moving particles): %.3g-%.3g 1/s", *band)
+write_json_atomic(output, {
+    **params, "setups": {name: {"loss_px": d.loss, "first_frame_after_release_s": d.offset,
+                                "boundary_distance_px": d.distances.tolist(), "silhouette_iou": d.iou.tolist(),
+                                "outflow_iou": d.outflow_iou.tolist()} for name, d in details.items()},
+    "shear_rate_band_per_s": band, "loss_px": loss, "evidence": evidence, "tolerance": settings["tolerance"],
+    "elastic_constants_Pa": {"mu": simulation["mu"], "lam": simulation["lam"]},
+    "runtime_s": time.time() - started})
+
+
+def write_history(path: Path) -> None:
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["phase", "evaluation", "loss_px", *NAMES])
+        for i, record in enumerate(evaluations.records):
+            writer.writerow([record["phase"], i, record["loss"], *np.exp(record["x"]).tolist()])
+
+
+write_atomic(smk.output.history, write_history)
+evaluations.path.unlink(missing_ok=True)
