@@ -15,6 +15,8 @@ from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, multistart_search, survey_points
 from rheo.fit.uncertainty import profile_intervals
 from rheo.io import write_atomic, write_json_atomic
+from rheo.report.figures import save_figure
+from rheo.report.virheometry import frames_figure
 from rheo.stage import inputs_key, setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -89,4 +91,7 @@ def write_history(path: Path) -> None:
 
 
 write_atomic(smk.output.history, write_history)
+masks = {name: np.load(files[1])["masks"] for name, files in setups.items()}
+save_figure(frames_figure({name: (masks[name], d.silhouettes, d.iou) for name, d in details.items()}),
+            smk.output.frames)
 evaluations.path.unlink(missing_ok=True)

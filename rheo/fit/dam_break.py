@@ -24,6 +24,7 @@ from rheo.render.silhouette import silhouette
 
 OFFSET_STEP = 1.0 / 240.0  # s
 MOVING_RATE = 0.1  # 1/s: slower particles count as at rest in the shear-rate band
+CONTAINER_RIM = 3  # px
 
 
 def _distance_to(mask: np.ndarray) -> np.ndarray:
@@ -54,6 +55,7 @@ class Comparison:
     iou: np.ndarray
     outflow_iou: np.ndarray
     shear_rates: np.ndarray  # 1/s, of the moving particles over the compared frames
+    silhouettes: np.ndarray  # (frames, H, W) bool: the simulated silhouettes compared, container included
 
 
 class DamBreakTarget:
@@ -65,7 +67,11 @@ class DamBreakTarget:
         self.setup = scene.setup
         self.masks = self.setup.masks
         self.to_mask = [_distance_to(m) for m in self.masks]
-        self.container = container_silhouette(self.setup)
+        # the recorded container is a pixel or two wider than the cuboid's outline (its walls, the binarisation):
+        # what every frame shows within CONTAINER_RIM px of the outline counts as container
+        outline = container_silhouette(self.setup)
+        rim = cv2.dilate(outline.astype(np.uint8), np.ones((2 * CONTAINER_RIM + 1,) * 2, np.uint8)).astype(bool)
+        self.container = outline | (rim & np.logical_and.reduce(self.masks))
         self.offsets = round(max_offset / OFFSET_STEP)
         self.frame_steps = round(1.0 / (self.setup.fps * OFFSET_STEP))
         if not np.isclose(self.frame_steps * OFFSET_STEP * self.setup.fps, 1.0):
@@ -99,7 +105,7 @@ class DamBreakTarget:
         steps_compared = best + self.frame_steps * np.arange(frames)
         rates = shear_rates(trajectory.C.numpy()[steps_compared]).ravel()
         return Comparison(float(table[best].mean()), best * OFFSET_STEP, table[best], iou, outflow,
-                          rates[rates > MOVING_RATE])
+                          rates[rates > MOVING_RATE], np.stack(chosen))
 
 
 NAMES = ("tau_y", "K", "n")  # the fitted parameters, searched as logarithms

@@ -34,3 +34,28 @@ def camera_check_figure(setup: Setup, overlap: dict[str, float], margin: int = 2
                  f"{100 * overlap['cuboid_on_silhouette']:.1f} % of the cuboid on the silhouette", fontsize=10)
     fig.tight_layout()
     return fig
+
+
+def overlay(observed: np.ndarray, simulated: np.ndarray) -> np.ndarray:
+    """RGB: both grey, recorded only red, simulated only blue, neither white."""
+    image = np.ones((*observed.shape, 3))
+    image[observed & simulated] = 0.55
+    image[observed & ~simulated] = (0.85, 0.15, 0.1)
+    image[simulated & ~observed] = (0.1, 0.35, 0.9)
+    return image
+
+
+def frames_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], frames=(0, 3, 7), margin: int = 15):
+    """Per setup (name: recorded masks, simulated silhouettes, IoU per frame) the chosen frames overlaid."""
+    fig, axes = plt.subplots(len(rows), len(frames), figsize=(3.4 * len(frames), 2.4 * len(rows)), squeeze=False)
+    for row, (name, (masks, simulated, iou)) in zip(axes, rows.items(), strict=True):
+        ys, xs = np.nonzero(masks.any(axis=0) | simulated.any(axis=0))
+        for ax, k in zip(row, frames, strict=True):
+            ax.imshow(overlay(masks[k], simulated[k]))
+            ax.set_xlim(xs.min() - margin, xs.max() + margin)
+            ax.set_ylim(ys.max() + margin, ys.min() - margin)
+            ax.set_title(f"{name}\nframe {k + 1}: IoU {iou[k]:.3f}", fontsize=8)
+            ax.axis("off")
+    fig.suptitle("grey: both; red: recorded only; blue: simulated only", fontsize=9)
+    fig.tight_layout()
+    return fig

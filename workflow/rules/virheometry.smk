@@ -55,6 +55,7 @@ rule virheometry_fit:
     output:
         params="results/virheometry/{material}/{fit}/params.json",
         history="results/virheometry/{material}/{fit}/history.csv",
+        frames="results/virheometry/{material}/{fit}/frames.png",
     log:
         "logs/virheometry/{material}/{fit}.log",
     benchmark:
