@@ -10,7 +10,7 @@ import torch
 
 from rheo.fit.inverse import build_problem, initial_guess, log_values, simulator_parameters
 from rheo.fit.observations import load
-from rheo.fit.uncertainty import Interval
+from rheo.fit.uncertainty import Interval, log_draws
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import (
     SYMBOLS,
@@ -72,11 +72,7 @@ for view in obs.views:
 sections.append(("Every view, animated", "".join(animations)))
 
 # the flow curve, with a band from the parameters' intervals (independent normal log-parameters)
-mean = log_values({k: p["value"] for k, p in params["parameters"].items()}, names).numpy()
-covariance = np.diag([Interval(p["value"], *p["ci95"]).sigma_log ** 2 for p in params["parameters"].values()])
-rng = np.random.default_rng(0)
-# an undetermined parameter's variance is huge: draws beyond a factor e^4 (about 55) of the value are clipped there
-draws = np.clip(rng.multivariate_normal(mean, covariance, size=400, check_valid="ignore"), mean - 4.0, mean + 4.0)
+draws = log_draws([Interval(p["value"], *p["ci95"]) for p in params["parameters"].values()])
 density_value = params["herschel_bulkley"]["density"]
 samples = np.array([simulator_parameters(dict(zip(names, torch.exp(torch.as_tensor(d)), strict=True)),
                                          params["convention"], density_value)[1:4].numpy() for d in draws])

@@ -53,6 +53,16 @@ def parabola_region(offsets: np.ndarray, values: np.ndarray, threshold: float) -
     return (-np.inf if values[0] <= threshold else below.min(), np.inf if values[-1] <= threshold else below.max())
 
 
+def log_draws(intervals: Sequence[Interval], count: int = 400, seed: int = 0, clip: float = 4.0) -> np.ndarray:
+    """(count, parameters) draws of the log-parameters, independent normals whose 95 % intervals are
+    ``intervals``, clipped to ``clip`` log units (a factor e^4, about 55) of each value: an undetermined parameter's
+    spread is otherwise huge."""
+    mean = np.log([i.value for i in intervals])
+    sigma = np.array([i.sigma_log for i in intervals])
+    draws = mean + sigma * np.random.default_rng(seed).standard_normal((count, len(intervals)))
+    return np.clip(draws, mean - clip, mean + clip)
+
+
 Evaluate = Callable[[np.ndarray, str], float]  # loss at a point of log-parameters, in a named phase
 
 

@@ -8,7 +8,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from rheo.experiments.rheometer import FlowCurve
 from rheo.experiments.virheometry import Setup
+from rheo.report.fit import flow_curve_figure
 
 CUBOID_EDGES = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)]
 
@@ -58,4 +60,17 @@ def frames_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], fr
             ax.axis("off")
     fig.suptitle("grey: both; red: recorded only; blue: simulated only", fontsize=9)
     fig.tight_layout()
+    return fig
+
+
+def flow_figure(law: tuple[float, float, float], samples: np.ndarray, band: tuple[float, float] | None,
+                curves: list[FlowCurve]):
+    """The recovered flow curve with its 95 % band, the shear rates the flow reached and the rheometer's points."""
+    fig = flow_curve_figure(*law, samples)
+    ax = fig.axes[0]
+    if band is not None and None not in band:
+        ax.axvspan(*band, color="0.85", zorder=0, label="shear rates reached")
+    for curve, marker in zip(curves, "os^v", strict=False):
+        ax.plot(curve.shear_rate, curve.stress, marker, ms=4, mfc="none", label=f"rheometer {curve.temperature:.0f} C")
+    ax.legend(fontsize=7)
     return fig

@@ -69,3 +69,23 @@ rule virheometry_fit:
         settings=config["virheometry"]["fit"],
     script:
         "../../stages/virheometry_fit.py"
+
+
+rule virheometry_report:
+    input:
+        params="results/virheometry/{material}/fit/params.json",
+        frames="results/virheometry/{material}/fit/frames.png",
+        camera_checks=lambda w: expand("results/virheometry/setups/{setup}/camera_check.png",
+                                       setup=virheometry_setups(w.material)),
+        rheometer=lambda w: config["virheometry"]["rheometer"].get(w.material, []),
+        single=lambda w: (expand("results/virheometry/{material}/fit_setup{k}/params.json", material=w.material,
+                                 k=[s.rsplit("_", 1)[1] for s in virheometry_setups(w.material)])
+                          if w.material in config["virheometry"]["single_setup_fits"] else []),
+    output:
+        "results/virheometry/{material}/report.html",
+    log:
+        "logs/virheometry/{material}/report.log",
+    wildcard_constraints:
+        material=r"[A-Za-z0-9]+",
+    script:
+        "../../stages/virheometry_report.py"

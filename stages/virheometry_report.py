@@ -1,0 +1,64 @@
+"""virheometry_report: one material's page: the recovered law with its intervals, the recorded and simulated
+frames, the flow curve (against the rheometer's curves where there are some, with the RMS of log10 of their ratio
+over the shear rates the flow reached), the intervals of each setup alone beside the joint fit's, the camera checks."""
+
+from pathlib import Path
+
+import numpy as np
+
+from rheo.experiments.rheometer import log_rms_error, read_flow_curve
+from rheo.fit.uncertainty import Interval, log_draws
+from rheo.io import read_json, write_text_atomic
+from rheo.report.html import figure_tag, image_tag, page, table_tag
+from rheo.report.virheometry import flow_figure
+from rheo.stage import setup_logging
+
+smk = snakemake  # noqa: F821  (injected by Snakemake)
+log = setup_logging(smk.log[0])
+material = smk.wildcards.material
+params = read_json(smk.input.params)
+KEYS = {"tau_y_Pa": "tau_y (Pa)", "K_Pa_s_n": "K (Pa s^n)", "n": "n"}
+
+
+def law_rows(fit: dict) -> list[list[str]]:
+    return [[label, f"{fit[key]['value']:.4g}", f"[{fit[key]['ci95'][0]:.3g}, {fit[key]['ci95'][1]:.3g}]",
+             "yes" if fit[key]["determined"] else "no"] for key, label in KEYS.items()]
+
+
+band = params["shear_rate_band_per_s"]
+sections = [("Recovered law", table_tag(["parameter", "value", "95 % interval", "determined"], law_rows(params))
+             + f"<p>Shear rates reached (5th-95th percentile of the moving particles): {band[0]:.3g}-{band[1]:.3g}"
+             f" 1/s. Runtime {params['runtime_s'] / 60:.1f} min.</p>"),
+            ("Setups", table_tag(["setup", "first frame after release (s)", "loss (px)", "mean IoU",
+                                  "mean IoU outside the container"],
+                                 [[name, f"{s['first_frame_after_release_s']:.4f}", f"{s['loss_px']:.3g}",
+                                   f"{np.mean(s['silhouette_iou']):.3f}", f"{np.mean(s['outflow_iou']):.3f}"]
+                                  for name, s in params["setups"].items()])
+             + image_tag(Path(smk.input.frames).read_bytes(), "png", "recorded and simulated silhouettes"))]
+curves = [read_flow_curve(p) for p in smk.input.rheometer]
+law = tuple(params[k]["value"] for k in KEYS)
+samples = np.exp(log_draws([Interval(params[k]["value"], *params[k]["ci95"]) for k in KEYS]))
+comparison = ""
+if curves:
+    rows = []
+    for curve in curves:
+        inside = curve.within(tuple(band))
+        error = log_rms_error(*law, inside) if len(inside.shear_rate) else float("nan")
+        rows.append([curve.name, f"{curve.temperature:.1f}", str(len(inside.shear_rate)), f"{error:.3f}"])
+        log.info("%s: RMS log10 error %.3f over %d points in %.3g-%.3g 1/s", curve.name, error,
+                 len(inside.shear_rate), *band)
+    comparison = table_tag(["rheometer curve", "temperature (C)", "points in the band", "RMS log10 error"], rows)
+sections.append(("Flow curve", figure_tag(flow_figure(law, samples, band, curves),
+                                          "recovered law, 95 % band from the intervals") + comparison))
+if smk.input.single:
+    header = ["fit", *[f"{label} 95 % interval (width, factor)" for label in KEYS.values()]]
+    rows = []
+    for path in [*smk.input.single, smk.input.params]:
+        fit = read_json(path)
+        rows.append([Path(path).parent.name, *[f"[{fit[k]['ci95'][0]:.3g}, {fit[k]['ci95'][1]:.3g}] "
+                                               f"({fit[k]['ci95'][1] / fit[k]['ci95'][0]:.2f})" for k in KEYS]])
+    sections.append(("One setup against both", table_tag(header, rows)))
+sections.append(("Camera checks", "".join(image_tag(Path(p).read_bytes(), "png", Path(p).parent.name)
+                                          for p in smk.input.camera_checks)))
+body = "".join(f"<h2>{title}</h2>{content}" for title, content in sections)
+write_text_atomic(smk.output[0], page(f"{material}: Herschel-Bulkley law from dam breaks", body))
