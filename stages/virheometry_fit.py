@@ -53,7 +53,10 @@ with Evaluator(partial(comparisons, setups, simulation), workers=smk.threads) as
         return evaluations.evaluate_many(joint, [x], phase)[0]
 
     points = survey_points(0.5 * (low + high), 0.5 * (high - low), settings["samples"])
-    losses = np.asarray(evaluations.evaluate_many(joint, list(points), "survey"))
+    # in chunks that keep every worker busy, each stored as it ends
+    chunk = max(smk.threads, 1)
+    losses = np.concatenate([evaluations.evaluate_many(joint, list(points[i:i + chunk]), "survey")
+                             for i in range(0, len(points), chunk)])
     starts = points[np.argsort(losses, kind="stable")[:settings["starts"]]]
     # the starts' simplex: a quarter of the spacing of the survey's points along each axis
     start_step = 0.25 * (high - low).min() / settings["samples"] ** (1.0 / len(NAMES))
