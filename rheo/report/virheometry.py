@@ -74,3 +74,23 @@ def flow_figure(law: tuple[float, float, float], samples: np.ndarray, band: tupl
         ax.plot(curve.shear_rate, curve.stress, marker, ms=4, mfc="none", label=f"rheometer {curve.temperature:.0f} C")
     ax.legend(fontsize=7)
     return fig
+
+
+def summary_figure(laws: dict[str, tuple[tuple[float, float, float], tuple[float, float]]]):
+    """Every material's recovered flow curve: solid over the shear rates its flow reached, dotted elsewhere."""
+    rate = np.logspace(-2, 3, 200)
+    fig, ax = plt.subplots(figsize=(7.5, 5))
+    for (name, (law, band)), colour in zip(laws.items(), plt.cm.tab20(np.linspace(0, 1, max(len(laws), 1))),
+                                           strict=False):
+        stress = law[0] + law[1] * rate ** law[2]
+        ax.plot(rate, stress, ":", color=colour, lw=1)
+        inside = (rate >= band[0]) & (rate <= band[1])
+        ax.plot(rate[inside], stress[inside], "-", color=colour, lw=2, label=name)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("shear rate (1/s)")
+    ax.set_ylabel("shear stress (Pa)")
+    ax.set_title("recovered flow curves (solid: shear rates the flow reached)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7, ncol=2)
+    return fig

@@ -89,3 +89,22 @@ rule virheometry_report:
         material=r"[A-Za-z0-9]+",
     script:
         "../../stages/virheometry_report.py"
+
+
+def virheometry_materials() -> list[str]:
+    """Every material with a setup folder in the data."""
+    names = {p.name.split("_")[1] for p in Path(config["virheometry"]["data"]).glob("ref_*_*_*_*") if p.is_dir()}
+    return sorted(names)
+
+
+rule virheometry_summary:
+    input:
+        expand("results/virheometry/{material}/fit/params.json", material=virheometry_materials()),
+    output:
+        "results/virheometry/summary.html",
+    log:
+        "logs/virheometry/summary.log",
+    params:
+        materials=virheometry_materials(),
+    script:
+        "../../stages/virheometry_summary.py"

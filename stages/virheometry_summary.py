@@ -1,0 +1,30 @@
+"""virheometry_summary: every material's recovered law in one table (values, intervals, IoU, shear-rate band,
+runtime) and one plot of all flow curves."""
+
+import numpy as np
+
+from rheo.io import read_json, write_text_atomic
+from rheo.report.html import figure_tag, page, table_tag
+from rheo.report.virheometry import summary_figure
+from rheo.stage import setup_logging
+
+smk = snakemake  # noqa: F821  (injected by Snakemake)
+log = setup_logging(smk.log[0])
+KEYS = ("tau_y_Pa", "K_Pa_s_n", "n")
+rows, laws = [], {}
+for material, path in zip(smk.params.materials, smk.input, strict=True):
+    fit = read_json(path)
+    cells = [material]
+    for key in KEYS:
+        p = fit[key]
+        cells.append(f"{p['value']:.3g} [{p['ci95'][0]:.3g}, {p['ci95'][1]:.3g}]" + ("" if p["determined"] else " *"))
+    cells.append(", ".join(f"{np.mean(s['silhouette_iou']):.3f}" for s in fit["setups"].values()))
+    band = fit["shear_rate_band_per_s"]
+    cells += [f"{band[0]:.2g}-{band[1]:.2g}", f"{fit['runtime_s'] / 60:.1f}"]
+    rows.append(cells)
+    laws[material] = (tuple(fit[k]["value"] for k in KEYS), tuple(band))
+body = (table_tag(["material", "tau_y (Pa) [95 %]", "K (Pa s^n) [95 %]", "n [95 %]", "mean IoU per setup",
+                   "shear rates reached (1/s)", "runtime (min)"], rows)
+        + "<p>* not determined by the recordings (95 % interval wider than a factor 4).</p>"
+        + figure_tag(summary_figure(laws), "recovered flow curves"))
+write_text_atomic(smk.output[0], page("Real dam breaks: twelve materials", body))
