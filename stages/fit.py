@@ -16,7 +16,7 @@ from tqdm.auto import tqdm
 from rheo.experiments.scene import material
 from rheo.fit.inverse import build_problem, initial_guess, log_values
 from rheo.fit.observations import load
-from rheo.fit.search import EvaluationLog, SilhouetteTarget, estimate, simplex_search, survey
+from rheo.fit.search import EvaluationLog, SilhouetteTarget, estimate, simplex_search, start_step, survey
 from rheo.io import read_json, write_atomic, write_json_atomic
 from rheo.stage import inputs_key, setup_logging
 
@@ -92,10 +92,9 @@ else:
     v0 = np.asarray(warm["v0"])
     surveyed = sorted((row for row in warm["history"] if row["phase"] == "survey"), key=lambda row: row["loss"])
     starts = [np.log([row[n] for n in names]) for row in surveyed[:settings["full"]["starts"]]]
-    # the starts' simplex: a quarter of the spacing of the survey's points along each axis
-    start_step = 0.5 * half_width / settings["warmup"]["samples"] ** (1.0 / count)
     result = estimate(lambda x, phase: evaluate(np.r_[x, v0], phase), starts, guess, names,
-                      evaluations=settings["full"]["evaluations"], start_step=start_step,
+                      evaluations=settings["full"]["evaluations"],
+                      start_step=start_step(2 * half_width, settings["warmup"]["samples"], count),
                       step=settings["full"]["step"], profile_step=settings["profile_step"],
                       tolerance=settings["tolerance"], box=box)
     truth = read_json(smk.input.truth)["material"]["as_configured"] if hasattr(smk.input, "truth") else {}

@@ -12,7 +12,7 @@ from tqdm.auto import tqdm
 
 from rheo.fit.dam_break import NAMES, comparisons
 from rheo.fit.parallel import Evaluator
-from rheo.fit.search import EvaluationLog, multistart_search, survey_points
+from rheo.fit.search import EvaluationLog, multistart_search, start_step, survey_points
 from rheo.fit.uncertainty import profile_intervals
 from rheo.io import write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
@@ -58,10 +58,8 @@ with Evaluator(partial(comparisons, setups, simulation), workers=smk.threads) as
     losses = np.concatenate([evaluations.evaluate_many(joint, list(points[i:i + chunk]), "survey")
                              for i in range(0, len(points), chunk)])
     starts = points[np.argsort(losses, kind="stable")[:settings["starts"]]]
-    # the starts' simplex: a quarter of the spacing of the survey's points along each axis
-    start_step = 0.25 * (high - low).min() / settings["samples"] ** (1.0 / len(NAMES))
-    x, loss = multistart_search(evaluate, list(starts), start_step, settings["step"], settings["evaluations"],
-                                (low, high))
+    x, loss = multistart_search(evaluate, list(starts), start_step((high - low).min(), settings["samples"], len(NAMES)),
+                                settings["step"], settings["evaluations"], (low, high))
     x, loss, intervals, evidence = profile_intervals(evaluate, x, range(len(NAMES)), NAMES, settings["profile_step"],
                                                      settings["tolerance"], (low, high))
     details = dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))

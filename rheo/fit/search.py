@@ -83,13 +83,7 @@ class EvaluationLog:
         return phase + ":" + ",".join(f"{v:.12g}" for v in x)
 
     def evaluate(self, objective: Callable[[np.ndarray], float], x: np.ndarray, phase: str) -> float:
-        record = self._index.get(self._point_key(phase, x))
-        if record is None:
-            record = {"phase": phase, "x": [float(v) for v in x], "loss": float(objective(x))}
-            self.records.append(record)
-            self._index[self._point_key(phase, x)] = record
-            self._write()
-        return record["loss"]
+        return self.evaluate_many(lambda points: [objective(p) for p in points], [x], phase)[0]
 
     def evaluate_many(self, objective: Callable[[list[np.ndarray]], list[float]], points: Sequence[np.ndarray],
                       phase: str) -> list[float]:
@@ -112,6 +106,12 @@ def survey_points(centre: np.ndarray, half_width: float | np.ndarray, samples: i
     count = max(samples - 1, 0)
     unit = qmc.Sobol(len(centre), seed=seed).random_base2(max(int(np.ceil(np.log2(max(count, 1)))), 0))[:count]
     return np.r_[centre[None, :], centre + (2.0 * unit - 1.0) * half_width]
+
+
+def start_step(width: float, samples: int, dimensions: int) -> float:
+    """A quarter of the spacing of ``samples`` survey points along each axis of a box ``width`` wide: the initial
+    simplex of a search from one of them."""
+    return 0.25 * width / samples ** (1.0 / dimensions)
 
 
 def survey(evaluate: Evaluate, centre: np.ndarray, half_width: float | np.ndarray, samples: int,
