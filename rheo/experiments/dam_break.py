@@ -1,5 +1,5 @@
-"""A dam break simulated: the material released from its cuboid behind the channel's walls, the domain sized from
-where the recording shows it going.
+"""A dam break simulated: the material released from its cuboid behind the channel's walls, in a domain sized from
+how far the recording shows it going.
 
 The gate is not simulated: the material is released at once at t = 0, and the time of the first recorded frame
 after the release (the gate is half open there and the material already moving) is a fitted offset. One rollout
@@ -10,30 +10,40 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 import torch
 
-from rheo.experiments.virheometry import Setup
+from rheo.experiments.virheometry import Setup, container_silhouette
 from rheo.physics import Box, Floor, HerschelBulkley, Simulator, kernels
 from rheo.physics.simulator import Trajectory
+from rheo.vision.cameras import Camera
 
 
 class DamBreakError(ValueError):
     """A dam break that cannot be simulated as asked."""
 
 
-def floor_footprint(setup: Setup, frame: int = -1) -> tuple[np.ndarray, np.ndarray]:
-    """Low and high (x, z) corners of where the rays through a silhouette's pixels meet the floor: a bound on the
-    material's extent on the floor (pixels of the material's top land beyond it, away from the camera)."""
-    camera = setup.camera
+def floor_footprint(camera: Camera, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Low and high (x, z) corners of where the rays through a mask's pixels meet the floor (None if no pixel looks
+    down at it): a bound on the extent on the floor of what the mask shows (the rays of points above the floor land
+    beyond them, away from the camera)."""
     origin, dirs = camera.pixel_rays()
-    rays = dirs[setup.masks[frame]]
-    down = rays[:, 1] < -1e-9
-    if not down.any():
-        raise DamBreakError(f"{setup.folder}: no silhouette pixel of frame {frame % len(setup.masks) + 1} looks "
-                            "down at the floor")
-    hits = origin[None, :] + rays[down] * (-origin[1] / rays[down, 1])[:, None]
+    rays = dirs[mask]
+    rays = rays[rays[:, 1] < -1e-9]
+    if not len(rays):
+        return None
+    hits = origin[None, :] + rays * (-origin[1] / rays[:, 1])[:, None]
     return hits[:, [0, 2]].min(axis=0), hits[:, [0, 2]].max(axis=0)
+
+
+def runout(setup: Setup, rim: int = 3) -> float:
+    """How far (m) past the gate the last frame shows material: the floor footprint of its pixels outside the
+    container (grown by ``rim`` px, the container's own outline in the recordings)."""
+    container = container_silhouette(setup).astype(np.uint8)
+    grown = cv2.dilate(container, np.ones((2 * rim + 1, 2 * rim + 1), np.uint8)).astype(bool)
+    footprint = floor_footprint(setup.camera, setup.masks[-1] & ~grown)
+    return 0.0 if footprint is None else max(float(footprint[1][0]) - setup.width, 0.0)
 
 
 @dataclass(frozen=True)
@@ -86,22 +96,16 @@ class DamBreakScene:
                 frame_dt=sample_dt, particle_volume=self.particle_volume())
 
 
-def dam_break_scene(setup: Setup, resolution: int, particles_per_cell: int = 2, margin: float = 0.2) -> DamBreakScene:
-    """The scene of ``setup``: a cube holding the cuboid and the last frame's floor footprint (grown by ``margin``
-    of its size on every side) above ``kernels.BOUND`` boundary cells on every face, on ``resolution`` cells."""
-    low, high = floor_footprint(setup)
-    cuboid_low, cuboid_high = setup.cuboid
-    low = np.minimum(low, cuboid_low[[0, 2]])
-    high = np.maximum(high, cuboid_high[[0, 2]])
-    grow = margin * (high - low)
-    low, high = low - grow, high + grow
-    low[0] = 0.0  # nothing passes the back wall
+def dam_break_scene(setup: Setup, cells_per_height: int = 8, particles_per_cell: int = 2,
+                    margin: float = 0.25) -> DamBreakScene:
+    """The scene of ``setup`` on cells of H / ``cells_per_height``: a cube holding the channel and the material that
+    leaves it, the ``runout`` past the gate and as far to either side (grown by ``margin``), above
+    ``kernels.BOUND`` boundary cells on every face and one more cell behind the back wall and under the floor."""
+    spread = (1.0 + margin) * max(runout(setup), 0.5 * setup.height)
+    low = np.array([0.0, -spread])
+    high = np.array([setup.width + spread, setup.depth + spread])
     extent = max(*(high - low), (1.0 + margin) * setup.height)
-    # boundary cells on every face, one more behind the back wall and under the floor for their colliders
-    cells_inside = resolution - 2 * kernels.BOUND - 1
-    if cells_inside < 8:
-        raise DamBreakError(f"resolution {resolution} leaves fewer than 8 cells for the material")
-    dx = extent / cells_inside
-    origin = (low[0] - (kernels.BOUND + 1) * dx, -(kernels.BOUND + 1) * dx,
-              0.5 * (low[1] + high[1]) - 0.5 * resolution * dx)
+    dx = setup.height / cells_per_height
+    resolution = int(np.ceil(extent / dx)) + 2 * kernels.BOUND + 1
+    origin = (-(kernels.BOUND + 1) * dx, -(kernels.BOUND + 1) * dx, 0.5 * (low[1] + high[1]) - 0.5 * resolution * dx)
     return DamBreakScene(setup, resolution * dx, origin, resolution, particles_per_cell)

@@ -1,25 +1,27 @@
-"""The dam-break scene: the floor footprint of a silhouette, the domain around it, and a rollout that holds a strong
-material in its cuboid and lets a weak one out through the open gate."""
+"""The dam-break scene: the floor footprint of a silhouette and the runout past the gate, the domain around it,
+and a rollout that holds a strong material in its cuboid and lets a weak one out through the open gate."""
 
 
 import numpy as np
 import pytest
 
-from rheo.experiments.dam_break import dam_break_scene, floor_footprint
+from rheo.experiments.dam_break import dam_break_scene, floor_footprint, runout
 from rheo.physics import HerschelBulkley, kernels
 from tests.conftest import DEPTH, HEIGHT, WIDTH
 
 
 def test_the_floor_footprint_of_a_silhouette_of_the_floor_is_that_region(channel):
     rect = (0.0, 0.06, -0.01, 0.05)
-    low, high = floor_footprint(channel(rect))
+    setup = channel(rect)
+    low, high = floor_footprint(setup.camera, setup.masks[0])
     assert low == pytest.approx([rect[0], rect[2]], abs=1.5e-3)
     assert high == pytest.approx([rect[1], rect[3]], abs=1.5e-3)
+    assert runout(setup) == pytest.approx(rect[1] - WIDTH, abs=1.5e-3)  # past the gate at x = W
 
 
 def test_the_domain_holds_the_cuboid_and_the_footprint_inside_its_boundary_cells(channel):
     setup = channel((0.0, 0.06, -0.01, 0.05))
-    scene = dam_break_scene(setup, resolution=24)
+    scene = dam_break_scene(setup, cells_per_height=4)
     lo = np.array(scene.domain_origin) + kernels.BOUND * scene.dx
     hi = np.array(scene.domain_origin) + scene.domain_size - kernels.BOUND * scene.dx
     for point in ([0.0, 0.0, -0.01], [0.06, HEIGHT, 0.05], [WIDTH, HEIGHT, DEPTH]):
@@ -34,7 +36,7 @@ def test_the_domain_holds_the_cuboid_and_the_footprint_inside_its_boundary_cells
 def test_a_weak_material_leaves_through_the_gate_and_a_strong_one_stays(channel, tau_y, flows):
     # yield under its own weight where rho g H = 196 Pa exceeds the yield stress (a factor sqrt(3) aside)
     # 6 cells over the height: on coarser grids the sticky floor and walls hold most of the material
-    scene = dam_break_scene(channel((0.0, 0.07, -0.01, 0.05)), resolution=32)
+    scene = dam_break_scene(channel((0.0, 0.05, 0.0, 0.04)), cells_per_height=6)
     trajectory = scene.rollout(HerschelBulkley(tau_y=tau_y, K=0.5, n=1.0, mu=2e4, lam=2e4), 0.2, 0.1)
     front = trajectory.x[-1, :, 0].max().item()
     assert (front > WIDTH + 0.01) == flows

@@ -29,7 +29,7 @@ def test_boundary_distance_of_a_shifted_square():
 
 def test_the_first_frames_offset_is_found_on_silhouettes_of_a_known_rollout(channel):
     setup = channel((0.0, 0.07, -0.01, 0.05), frames=4)
-    scene = dam_break_scene(setup, resolution=24)
+    scene = dam_break_scene(setup, cells_per_height=4)
     truth = dict(tau_y=5.0, K=0.5, n=0.8)
     target = DamBreakTarget(scene, max_offset=0.05, elastic=(2e4, 2e4))
     offset_steps, frames = 7, len(setup.masks)
