@@ -19,6 +19,8 @@ from rheo.physics import Box, Floor, HerschelBulkley, Simulator, kernels
 from rheo.physics.simulator import Trajectory
 from rheo.vision.cameras import Camera
 
+WALL_CELLS = 2  # the least thickness of a wall, in grid cells
+
 
 class DamBreakError(ValueError):
     """A dam break that cannot be simulated as asked."""
@@ -68,8 +70,19 @@ class DamBreakScene:
     def colliders(self) -> list:
         """The floor, and every wall above it as a box (the file's first box is the floor slab)."""
         floor_contact = next((w.contact for w in self.setup.walls if w.high[1] <= 0.0), "sticky")
-        boxes = [Box(center=tuple(0.5 * (np.add(w.low, w.high))), half_extents=tuple(0.5 * np.subtract(w.high, w.low)),
-                     contact=w.contact) for w in self.setup.walls if w.high[1] > 0.0]
+        cuboid_low, cuboid_high = self.setup.cuboid
+        boxes = []
+        for wall in self.setup.walls:
+            if wall.high[1] <= 0.0:
+                continue
+            low, high = np.array(wall.low), np.array(wall.high)
+            # a wall thinner than the grid holds no node and lets the material through: thickened outwards
+            thick = WALL_CELLS * self.dx
+            behind, beyond = high <= cuboid_low + 1e-9, low >= cuboid_high - 1e-9
+            low = np.where(behind, np.minimum(low, high - thick), low)
+            high = np.where(beyond, np.maximum(high, low + thick), high)
+            boxes.append(Box(center=tuple(0.5 * (low + high)), half_extents=tuple(0.5 * (high - low)),
+                             contact=wall.contact))
         return [Floor(height=0.0, contact=floor_contact), *boxes]
 
     def simulator(self, material: HerschelBulkley) -> Simulator:

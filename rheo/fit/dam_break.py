@@ -37,6 +37,19 @@ def boundary_distance(simulated: np.ndarray, mask: np.ndarray, to_mask: np.ndarr
     return 0.5 * (float(to_mask[simulated].mean()) + float(_distance_to(simulated)[mask].mean()))
 
 
+def skin(camera, points: np.ndarray, spacing: float) -> np.ndarray:
+    """The particles' silhouette with gaps up to about a particle spacing closed: a thin spreading layer leaves its
+    particles farther apart than the discs that draw them."""
+    drawn = silhouette(camera, points, spacing)
+    depth = camera.project(points)[1]
+    gap = spacing * camera.K[0, 0] / float(np.median(depth[depth > 0])) if (depth > 0).any() else 0.0
+    if gap < 1.0:
+        return drawn
+    size = 2 * int(np.ceil(gap)) + 1
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+    return cv2.morphologyEx(drawn.astype(np.uint8), cv2.MORPH_CLOSE, kernel).astype(bool)
+
+
 def shear_rates(velocity_gradient: np.ndarray) -> np.ndarray:
     """Equivalent shear rate sqrt(2 D':D') (1/s) of velocity gradients (..., 3, 3): gamma_dot in simple shear."""
     strain_rate = 0.5 * (velocity_gradient + np.swapaxes(velocity_gradient, -1, -2))
@@ -90,7 +103,7 @@ class DamBreakTarget:
 
         def simulated(step: int) -> np.ndarray:
             if step not in drawn:
-                drawn[step] = silhouette(self.setup.camera, positions[step], self.scene.spacing) | self.container
+                drawn[step] = skin(self.setup.camera, positions[step], self.scene.spacing) | self.container
             return drawn[step]
 
         table = np.array([[boundary_distance(simulated(start + k * self.frame_steps), self.masks[k], self.to_mask[k])

@@ -29,7 +29,12 @@ def test_the_domain_holds_the_cuboid_and_the_footprint_inside_its_boundary_cells
     positions = scene.initial_positions()
     assert np.all(positions.min(axis=0) > 0) and np.all(positions.max(axis=0) < [WIDTH, HEIGHT, DEPTH])
     assert len(positions) * scene.particle_volume() == pytest.approx(WIDTH * HEIGHT * DEPTH)
-    assert [type(c).__name__ for c in scene.colliders()] == ["Floor", "Box", "Box", "Box"]
+    colliders = scene.colliders()
+    assert [type(c).__name__ for c in colliders] == ["Floor", "Box", "Box", "Box"]
+    # the 3 mm side walls are thickened outwards to two cells, so that grid nodes lie inside them
+    for box in colliders[1:]:
+        assert min(box.half_extents) >= scene.dx - 1e-12
+    assert colliders[3].center[2] - colliders[3].half_extents[2] == pytest.approx(DEPTH)
 
 
 @pytest.mark.parametrize("tau_y, flows", [(2000.0, False), (5.0, True)])
