@@ -5,8 +5,7 @@ import numpy as np
 import pytest
 
 from rheo.experiments.dam_break import dam_break_scene
-from rheo.fit.dam_break import OFFSET_STEP, DamBreakTarget, _distance_to, boundary_distance, shear_rates
-from rheo.render.silhouette import silhouette
+from rheo.fit.dam_break import OFFSET_STEP, DamBreakTarget, _distance_to, boundary_distance, shear_rates, skin
 
 
 def test_shear_rate_of_simple_shear_and_of_a_rotation():
@@ -35,7 +34,7 @@ def test_the_first_frames_offset_is_found_on_silhouettes_of_a_known_rollout(chan
     offset_steps, frames = 7, len(setup.masks)
     trajectory = scene.rollout(target.material(**truth), (offset_steps + (frames - 1) * target.frame_steps)
                                * OFFSET_STEP, OFFSET_STEP)
-    observed = [silhouette(setup.camera, trajectory.x[offset_steps + k * target.frame_steps].numpy(), scene.spacing)
+    observed = [skin(setup.camera, trajectory.x[offset_steps + k * target.frame_steps].numpy(), scene.spacing)
                 | target.container for k in range(frames)]
     setup.masks[:] = observed
     target = DamBreakTarget(scene, max_offset=0.05, elastic=(2e4, 2e4))
