@@ -109,7 +109,7 @@ class DamBreakScene:
                 frame_dt=sample_dt, particle_volume=self.particle_volume())
 
 
-def dam_break_scene(setup: Setup, cells_per_height: int = 8, particles_per_cell: int = 2,
+def dam_break_scene(setup: Setup, cells_per_height: int = 6, particles_per_cell: int = 2,
                     margin: float = 0.25) -> DamBreakScene:
     """The scene of ``setup`` on cells of H / ``cells_per_height``: a cube holding the channel and the material that
     leaves it, the ``runout`` past the gate and as far to either side (grown by ``margin``), above
