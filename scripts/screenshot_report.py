@@ -46,7 +46,7 @@ def main() -> int:
         return 2
     with tempfile.TemporaryDirectory() as profile:
         # a tall window: the whole page in one image; Chromium sizes the screenshot to the window
-        height = 800 + 40 * page.count("<figure") * 10
+        height = 800 + 400 * page.count("<figure") + 45 * page.count("<tr")
         subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", f"--user-data-dir={profile}",
                         f"--window-size={args.width},{height}", "--hide-scrollbars",
                         f"--screenshot={args.screenshot.resolve()}", args.report.resolve().as_uri()],

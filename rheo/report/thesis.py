@@ -80,7 +80,7 @@ def render(tables: list[tuple[str, str, list[dict]]], collapse: list[dict]) -> s
     body = ["<p>Inverse experiments rebuilt from our runs of the thesis' virtual experiments with the thesis' "
             "initial guesses (rows in green: our error at most the thesis'). Intervals: the materials whose loss "
             "lies within the fit model's tolerance of the best fit's; a parameter the recording does not determine "
-            "is flagged and held at its initial guess.</p>",
+            "is flagged, and held at its initial guess where that lies inside its interval.</p>",
             figure_tag(error_figure([(f"Table {name}: {title}", rows) for name, title, rows in tables]),
                        "percent error of each recovered parameter, thesis and rheo")]
     for name, title, rows in tables:
