@@ -10,11 +10,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 import torch
 
-from rheo.experiments.virheometry import Setup, container_silhouette
+from rheo.experiments.virheometry import CONTAINER_RIM, Setup, container_silhouette
 from rheo.physics import Box, Floor, HerschelBulkley, Simulator, kernels
 from rheo.physics.simulator import Trajectory
 from rheo.vision.cameras import Camera
@@ -39,12 +38,10 @@ def floor_footprint(camera: Camera, mask: np.ndarray) -> tuple[np.ndarray, np.nd
     return hits[:, [0, 2]].min(axis=0), hits[:, [0, 2]].max(axis=0)
 
 
-def runout(setup: Setup, rim: int = 3) -> float:
+def runout(setup: Setup, rim: int = CONTAINER_RIM) -> float:
     """How far (m) past the gate the last frame shows material: the floor footprint of its pixels outside the
     container (grown by ``rim`` px, the container's own outline in the recordings)."""
-    container = container_silhouette(setup).astype(np.uint8)
-    grown = cv2.dilate(container, np.ones((2 * rim + 1, 2 * rim + 1), np.uint8)).astype(bool)
-    footprint = floor_footprint(setup.camera, setup.masks[-1] & ~grown)
+    footprint = floor_footprint(setup.camera, setup.masks[-1] & ~container_silhouette(setup, rim))
     return 0.0 if footprint is None else max(float(footprint[1][0]) - setup.width, 0.0)
 
 

@@ -29,6 +29,7 @@ DYN_PER_CM2 = 0.1  # Pa
 FPS = 24.0
 FOLDER_NAME = re.compile(r"^ref_(?P<material>[A-Za-z0-9]+)_(?P<H>\d+(?:\.\d+)?)_(?P<W>\d+(?:\.\d+)?)_(?P<k>\d+)$")
 CONTACTS = {"sticking": "sticky", "slipping": "slip"}
+CONTAINER_RIM = 3  # px at half the window size: how much wider the recorded container is than the cuboid's outline
 
 
 class SetupError(ValueError):
@@ -220,9 +221,9 @@ def read_setup(folder: str | Path, scale: float = 1.0) -> Setup:
                  masks=read_masks(folder, *size), start_point=start)
 
 
-def container_silhouette(setup: Setup) -> np.ndarray:
-    """The silhouette (H, W) of the material's initial cuboid, which is also the container's: the recordings'
-    silhouettes include the container, so every frame covers it."""
+def container_silhouette(setup: Setup, rim: int = 0) -> np.ndarray:
+    """The silhouette (H, W) of the material's initial cuboid, which is also the container's (the recordings'
+    silhouettes include the container, so every frame covers it), grown by ``rim`` px."""
     low, high = setup.cuboid
     corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
     uv, depth = setup.camera.project(corners)
@@ -230,6 +231,8 @@ def container_silhouette(setup: Setup) -> np.ndarray:
         raise SetupError(f"{setup.folder}: the material's cuboid lies (partly) behind the camera")
     projected = np.zeros((setup.camera.height, setup.camera.width), np.uint8)
     cv2.fillConvexPoly(projected, cv2.convexHull(np.round(uv * 16).astype(np.int32)), 1, cv2.LINE_8, shift=4)
+    if rim:
+        projected = cv2.dilate(projected, np.ones((2 * rim + 1, 2 * rim + 1), np.uint8))
     return projected.astype(bool)
 
 

@@ -18,13 +18,12 @@ import cv2
 import numpy as np
 
 from rheo.experiments.dam_break import DamBreakScene, dam_break_scene
-from rheo.experiments.virheometry import Setup, container_silhouette
+from rheo.experiments.virheometry import CONTAINER_RIM, Setup, container_silhouette
 from rheo.physics import HerschelBulkley
 from rheo.render.silhouette import silhouette
 
 OFFSET_STEP = 1.0 / 240.0  # s
 MOVING_RATE = 0.1  # 1/s: slower particles count as at rest in the shear-rate band
-CONTAINER_RIM = 3  # px
 
 
 def _distance_to(mask: np.ndarray) -> np.ndarray:
@@ -82,9 +81,8 @@ class DamBreakTarget:
         self.to_mask = [_distance_to(m) for m in self.masks]
         # the recorded container is a pixel or two wider than the cuboid's outline (its walls, the binarisation):
         # what every frame shows within CONTAINER_RIM px of the outline counts as container
-        outline = container_silhouette(self.setup)
-        rim = cv2.dilate(outline.astype(np.uint8), np.ones((2 * CONTAINER_RIM + 1,) * 2, np.uint8)).astype(bool)
-        self.container = outline | (rim & np.logical_and.reduce(self.masks))
+        rim = container_silhouette(self.setup, CONTAINER_RIM)
+        self.container = container_silhouette(self.setup) | (rim & np.logical_and.reduce(self.masks))
         self.offsets = round(max_offset / OFFSET_STEP)
         self.frame_steps = round(1.0 / (self.setup.fps * OFFSET_STEP))
         if not np.isclose(self.frame_steps * OFFSET_STEP * self.setup.fps, 1.0):
