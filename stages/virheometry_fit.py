@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from rheo.fit.dam_break import NAMES, comparisons
+from rheo.fit.dam_break import MOVING_RATE, NAMES, comparisons
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, multistart_search, start_step, survey_points
 from rheo.fit.uncertainty import profile_intervals
@@ -66,14 +66,17 @@ with Evaluator(partial(comparisons, setups, simulation), workers=smk.threads) as
 bar.close()
 
 rates = np.concatenate([d.shear_rates for d in details.values()])
-band = np.percentile(rates, [5, 95]).tolist() if len(rates) else [None, None]
+band = np.percentile(rates, [5, 95]).tolist() if len(rates) else None
 keys = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}
 params = {keys[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined}
           for n, i in intervals.items()}
 for n, i in intervals.items():
     log.info("%s = %.4g, 95%% interval [%.4g, %.4g]%s", n, i.value, i.low, i.high,
              "" if i.determined else " (not determined by the recordings)")
-log.info("shear rates reached (5th-95th percentile of moving particles): %.3g-%.3g 1/s", *band)
+if len(rates):
+    log.info("shear rates reached (5th-95th percentile of moving particles): %.3g-%.3g 1/s", *band)
+else:
+    log.warning("no particle moved faster than %g 1/s: no shear-rate band", MOVING_RATE)
 write_json_atomic(output, {
     **params, "setups": {name: {"loss_px": d.loss, "first_frame_after_release_s": d.offset,
                                 "boundary_distance_px": d.distances.tolist(), "silhouette_iou": d.iou.tolist(),

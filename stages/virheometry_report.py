@@ -26,9 +26,10 @@ def law_rows(fit: dict) -> list[list[str]]:
 
 
 band = params["shear_rate_band_per_s"]
+reached = "none: nothing moved" if band is None else f"{band[0]:.3g}-{band[1]:.3g} 1/s"
 sections = [("Recovered law", table_tag(["parameter", "value", "95 % interval", "determined"], law_rows(params))
-             + f"<p>Shear rates reached (5th-95th percentile of the moving particles): {band[0]:.3g}-{band[1]:.3g}"
-             f" 1/s. Runtime {params['runtime_s'] / 60:.1f} min.</p>"),
+             + f"<p>Shear rates reached (5th-95th percentile of the moving particles): {reached}. "
+             f"Runtime {params['runtime_s'] / 60:.1f} min.</p>"),
             ("Setups", table_tag(["setup", "first frame after release (s)", "loss (px)", "mean IoU",
                                   "mean IoU outside the container"],
                                  [[name, f"{s['first_frame_after_release_s']:.4f}", f"{s['loss_px']:.3g}",
@@ -39,7 +40,7 @@ curves = [read_flow_curve(p) for p in smk.input.rheometer]
 law = tuple(params[k]["value"] for k in KEYS)
 samples = np.exp(log_draws([Interval(params[k]["value"], *params[k]["ci95"]) for k in KEYS]))
 comparison = ""
-if curves:
+if curves and band is not None:
     rows = []
     for curve in curves:
         inside = curve.within(tuple(band))

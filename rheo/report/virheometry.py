@@ -68,7 +68,7 @@ def flow_figure(law: tuple[float, float, float], samples: np.ndarray, band: tupl
     """The recovered flow curve with its 95 % band, the shear rates the flow reached and the rheometer's points."""
     fig = flow_curve_figure(*law, samples)
     ax = fig.axes[0]
-    if band is not None and None not in band:
+    if band is not None:
         ax.axvspan(*band, color="0.85", zorder=0, label="shear rates reached")
     for curve, marker in zip(curves, "os^v", strict=False):
         ax.plot(curve.shear_rate, curve.stress, marker, ms=4, mfc="none", label=f"rheometer {curve.temperature:.0f} C")
@@ -76,7 +76,7 @@ def flow_figure(law: tuple[float, float, float], samples: np.ndarray, band: tupl
     return fig
 
 
-def summary_figure(laws: dict[str, tuple[tuple[float, float, float], tuple[float, float]]]):
+def summary_figure(laws: dict[str, tuple[tuple[float, float, float], tuple[float, float] | None]]):
     """Every material's recovered flow curve: solid over the shear rates its flow reached, dotted elsewhere."""
     rate = np.logspace(-2, 3, 200)
     fig, ax = plt.subplots(figsize=(7.5, 5))
@@ -84,6 +84,8 @@ def summary_figure(laws: dict[str, tuple[tuple[float, float, float], tuple[float
                                            strict=False):
         stress = law[0] + law[1] * rate ** law[2]
         ax.plot(rate, stress, ":", color=colour, lw=1)
+        if band is None:
+            continue
         inside = (rate >= band[0]) & (rate <= band[1])
         ax.plot(rate[inside], stress[inside], "-", color=colour, lw=2, label=name)
     ax.set_xscale("log")
