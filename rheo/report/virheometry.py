@@ -83,7 +83,7 @@ def summary_figure(laws: dict[str, tuple[tuple[float, float, float], tuple[float
     for (name, (law, band)), colour in zip(laws.items(), plt.cm.tab20(np.linspace(0, 1, max(len(laws), 1))),
                                            strict=False):
         stress = law[0] + law[1] * rate ** law[2]
-        ax.plot(rate, stress, ":", color=colour, lw=1)
+        ax.plot(rate, stress, ":", color=colour, lw=1, label=name if band is None else None)
         if band is None:
             continue
         inside = (rate >= band[0]) & (rate <= band[1])
