@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from rheo.fit.dam_break import MOVING_RATE, NAMES, comparisons
+from rheo.fit.dam_break import MOVING_RATE, NAMES, RESULT_KEYS, comparisons
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, multistart_search, start_step, survey_points
 from rheo.fit.uncertainty import profile_intervals
@@ -67,8 +67,7 @@ bar.close()
 
 rates = np.concatenate([d.shear_rates for d in details.values()])
 band = np.percentile(rates, [5, 95]).tolist() if len(rates) else None
-keys = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}
-params = {keys[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined}
+params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined}
           for n, i in intervals.items()}
 for n, i in intervals.items():
     log.info("%s = %.4g, 95%% interval [%.4g, %.4g]%s", n, i.value, i.low, i.high,

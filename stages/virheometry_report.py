@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from rheo.experiments.rheometer import log_rms_error, read_flow_curve
+from rheo.fit.dam_break import RESULT_KEYS
 from rheo.fit.uncertainty import Interval, log_draws
 from rheo.io import read_json, write_text_atomic
 from rheo.report.html import figure_tag, image_tag, page, table_tag
@@ -17,7 +18,7 @@ smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
 material = smk.wildcards.material
 params = read_json(smk.input.params)
-KEYS = {"tau_y_Pa": "tau_y (Pa)", "K_Pa_s_n": "K (Pa s^n)", "n": "n"}
+KEYS = dict(zip(RESULT_KEYS.values(), ("tau_y (Pa)", "K (Pa s^n)", "n"), strict=True))
 
 
 def law_rows(fit: dict) -> list[list[str]]:

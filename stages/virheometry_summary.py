@@ -3,6 +3,7 @@ runtime) and one plot of all flow curves."""
 
 import numpy as np
 
+from rheo.fit.dam_break import RESULT_KEYS
 from rheo.io import read_json, write_text_atomic
 from rheo.report.html import figure_tag, page, table_tag
 from rheo.report.virheometry import summary_figure
@@ -10,7 +11,7 @@ from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
-KEYS = ("tau_y_Pa", "K_Pa_s_n", "n")
+KEYS = tuple(RESULT_KEYS.values())
 rows, laws = [], {}
 for material, path in zip(smk.params.materials, smk.input, strict=True):
     fit = read_json(path)

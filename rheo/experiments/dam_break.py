@@ -9,6 +9,7 @@ recorded at a fine spacing serves every candidate offset.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 import torch
@@ -86,6 +87,7 @@ class DamBreakScene:
         return Simulator(material, resolution=self.resolution, domain_size=self.domain_size,
                          domain_origin=self.domain_origin, colliders=self.colliders())
 
+    @cached_property
     def initial_positions(self) -> np.ndarray:
         """Particles at the centres of a lattice of ``spacing`` filling the cuboid."""
         low, high = self.setup.cuboid
@@ -93,17 +95,18 @@ class DamBreakScene:
         axes = [low[a] + (np.arange(counts[a]) + 0.5) * (high[a] - low[a]) / counts[a] for a in range(3)]
         return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
 
+    @property
     def particle_volume(self) -> float:
         low, high = self.setup.cuboid
-        return float(np.prod(high - low)) / len(self.initial_positions())
+        return float(np.prod(high - low)) / len(self.initial_positions)
 
     def rollout(self, material: HerschelBulkley, duration: float, sample_dt: float) -> Trajectory:
         """Positions every ``sample_dt`` seconds from the release to ``duration``."""
         frames = int(np.ceil(duration / sample_dt - 1e-9))
         with torch.no_grad():
             return self.simulator(material).rollout(
-                torch.as_tensor(self.initial_positions(), dtype=torch.float32), torch.zeros(3), frames=frames,
-                frame_dt=sample_dt, particle_volume=self.particle_volume())
+                torch.as_tensor(self.initial_positions, dtype=torch.float32), torch.zeros(3), frames=frames,
+                frame_dt=sample_dt, particle_volume=self.particle_volume)
 
 
 def dam_break_scene(setup: Setup, cells_per_height: int = 6, particles_per_cell: int = 2,

@@ -19,6 +19,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from rheo.render.silhouette import iou
 from rheo.vision.cameras import Camera
 
 logger = logging.getLogger(__name__)
@@ -67,6 +68,11 @@ class Setup:
     def cuboid(self) -> tuple[np.ndarray, np.ndarray]:
         """Corners (low, high) of the material at rest before the gate opens."""
         return np.array([0.0, 0.0, 0.0]), np.array([self.width, self.height, self.depth])
+
+    def cuboid_corners(self) -> np.ndarray:
+        """The cuboid's eight corners (8, 3), corner i at (high if bit 2, 1, 0 of i is set for x, y, z)."""
+        low, high = self.cuboid
+        return np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
 
     def record(self) -> dict:
         """Everything but the masks, JSON-ready."""
@@ -224,9 +230,7 @@ def read_setup(folder: str | Path, scale: float = 1.0) -> Setup:
 def container_silhouette(setup: Setup, rim: int = 0) -> np.ndarray:
     """The silhouette (H, W) of the material's initial cuboid, which is also the container's (the recordings'
     silhouettes include the container, so every frame covers it), grown by ``rim`` px."""
-    low, high = setup.cuboid
-    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
-    uv, depth = setup.camera.project(corners)
+    uv, depth = setup.camera.project(setup.cuboid_corners())
     if (depth <= 0).any():
         raise SetupError(f"{setup.folder}: the material's cuboid lies (partly) behind the camera")
     projected = np.zeros((setup.camera.height, setup.camera.width), np.uint8)
@@ -242,6 +246,5 @@ def cuboid_overlap(setup: Setup) -> dict[str, float]:
     projected = container_silhouette(setup)
     mask = setup.masks[0]
     both = float((projected & mask).sum())
-    return {"iou": both / max(float((projected | mask).sum()), 1.0),
-            "cuboid_on_silhouette": both / max(float(projected.sum()), 1.0),
+    return {"iou": iou(projected, mask), "cuboid_on_silhouette": both / max(float(projected.sum()), 1.0),
             "silhouette_on_cuboid": both / max(float(mask.sum()), 1.0)}

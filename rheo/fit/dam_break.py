@@ -2,7 +2,8 @@
 
 The recordings' silhouettes include the container, so the simulated silhouette is the particles' joined with the
 container's; what differs between materials is the material outside it. The loss of a frame is the symmetric mean
-boundary distance (px) between the two, as in the virtual experiments' fit. The first frame's time after the
+boundary distance (px) between the two (``rheo.render.silhouette.boundary_distance``), as in the virtual
+experiments' fit. The first frame's time after the
 release is not known: one rollout is recorded every ``OFFSET_STEP`` seconds, and the offset whose frames (1/fps
 apart) fit best is taken, for every material evaluated.
 """
@@ -20,20 +21,10 @@ import numpy as np
 from rheo.experiments.dam_break import DamBreakScene, dam_break_scene
 from rheo.experiments.virheometry import CONTAINER_RIM, Setup, container_silhouette
 from rheo.physics import HerschelBulkley
-from rheo.render.silhouette import silhouette
+from rheo.render.silhouette import boundary_distance, distance_to, iou, silhouette
 
 OFFSET_STEP = 1.0 / 240.0  # s
 MOVING_RATE = 0.1  # 1/s: slower particles count as at rest in the shear-rate band
-
-
-def _distance_to(mask: np.ndarray) -> np.ndarray:
-    return cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-
-
-def boundary_distance(simulated: np.ndarray, mask: np.ndarray, to_mask: np.ndarray) -> float:
-    """Half the mean distance (px) of the simulated silhouette's pixels to the mask (``to_mask``: its distance
-    map) plus half that of the mask's pixels to the simulated silhouette."""
-    return 0.5 * (float(to_mask[simulated].mean()) + float(_distance_to(simulated)[mask].mean()))
 
 
 def skin(camera, points: np.ndarray, spacing: float) -> np.ndarray:
@@ -78,7 +69,7 @@ class DamBreakTarget:
         self.scene = scene
         self.setup = scene.setup
         self.masks = self.setup.masks
-        self.to_mask = [_distance_to(m) for m in self.masks]
+        self.to_mask = [distance_to(m) for m in self.masks]
         # the recorded container is a pixel or two wider than the cuboid's outline (its walls, the binarisation):
         # what every frame shows within CONTAINER_RIM px of the outline counts as container
         rim = container_silhouette(self.setup, CONTAINER_RIM)
@@ -109,17 +100,16 @@ class DamBreakTarget:
         best = int(np.argmin(table.mean(axis=1)))
         chosen = [simulated(best + k * self.frame_steps) for k in range(frames)]
         outside = ~self.container
-        iou = np.array([float((s & m).sum()) / max(float((s | m).sum()), 1.0)
-                        for s, m in zip(chosen, self.masks, strict=True)])
-        outflow = np.array([float((s & m & outside).sum()) / max(float(((s | m) & outside).sum()), 1.0)
-                            for s, m in zip(chosen, self.masks, strict=True)])
+        overlap = np.array([iou(s, m) for s, m in zip(chosen, self.masks, strict=True)])
+        outflow = np.array([iou(s & outside, m & outside) for s, m in zip(chosen, self.masks, strict=True)])
         steps_compared = best + self.frame_steps * np.arange(frames)
         rates = shear_rates(trajectory.C.numpy()[steps_compared]).ravel()
-        return Comparison(float(table[best].mean()), best * OFFSET_STEP, table[best], iou, outflow,
+        return Comparison(float(table[best].mean()), best * OFFSET_STEP, table[best], overlap, outflow,
                           rates[rates > MOVING_RATE], np.stack(chosen))
 
 
 NAMES = ("tau_y", "K", "n")  # the fitted parameters, searched as logarithms
+RESULT_KEYS = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}  # their keys in params.json
 
 
 def comparisons(setups: dict[str, tuple[str, str]], simulation: dict) -> dict[str, Callable[[np.ndarray], Comparison]]:

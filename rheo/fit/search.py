@@ -21,7 +21,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import cv2
 import numpy as np
 from scipy.optimize import minimize
 from scipy.stats import qmc
@@ -29,14 +28,9 @@ from scipy.stats import qmc
 from rheo.fit.observations import Observations
 from rheo.fit.uncertainty import Evaluate, Interval, profile_intervals
 from rheo.io import write_atomic
-from rheo.render.silhouette import coverage
+from rheo.render.silhouette import boundary_distance, distance_to, silhouette
 
 logger = logging.getLogger(__name__)
-
-
-def _outside_distance(mask: np.ndarray) -> np.ndarray:
-    """Distance (px) from every pixel to the nearest pixel of ``mask``."""
-    return cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
 
 
 class SilhouetteTarget:
@@ -47,20 +41,16 @@ class SilhouetteTarget:
         self.frames = frames
         self.masks = [[v.masks[k].reshape(v.camera.height, v.camera.width).astype(bool) for v in obs.views]
                       for k in range(frames + 1)]
-        self.outside = [[_outside_distance(m) for m in row] for row in self.masks]
+        self.outside = [[distance_to(m) for m in row] for row in self.masks]
 
     def distances(self, positions: Sequence[np.ndarray], spacing: float) -> np.ndarray:
-        """Symmetric mean boundary distance (px) of every frame 1 .. frames and view: (frames, views). Half the
-        mean distance of the simulated silhouette's pixels to the mask plus half that of the mask's pixels to the
-        silhouette."""
+        """Symmetric mean boundary distance (px, ``boundary_distance``) of every frame 1 .. frames and view:
+        (frames, views)."""
         out = np.empty((self.frames, len(self.obs.views)))
         for k in range(1, self.frames + 1):
             for i, view in enumerate(self.obs.views):
-                simulated = coverage(view.camera, positions[k], spacing) >= 0.5
-                mask, outside = self.masks[k][i], self.outside[k][i]
-                to_mask = outside[simulated].mean() if simulated.any() else outside.max()
-                to_simulated = _outside_distance(simulated)[mask].mean() if mask.any() else 0.0
-                out[k - 1, i] = 0.5 * (to_mask + to_simulated)
+                out[k - 1, i] = boundary_distance(silhouette(view.camera, positions[k], spacing), self.masks[k][i],
+                                                  self.outside[k][i])
         return out
 
 

@@ -18,7 +18,7 @@ from tqdm.auto import tqdm
 
 from rheo.fit.observations import Observations, sample_rays
 from rheo.render.field import WHITE, VoxelGrid, march
-from rheo.render.silhouette import silhouette
+from rheo.render.silhouette import iou, silhouette
 
 logger = logging.getLogger(__name__)
 
@@ -169,9 +169,7 @@ def silhouette_iou(obs: Observations, seed: Seed, frame: int = 0) -> dict[str, f
     """Per view, the IoU of the particles' silhouette (as the fit draws it) with the mask."""
     scores = {}
     for view in obs.views:
-        rendered = silhouette(view.camera, seed.positions, seed.spacing).ravel()
-        mask = view.masks[frame]
-        scores[view.name] = float((rendered & mask).sum() / max((rendered | mask).sum(), 1))
+        scores[view.name] = iou(silhouette(view.camera, seed.positions, seed.spacing).ravel(), view.masks[frame])
     return scores
 
 

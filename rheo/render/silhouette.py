@@ -39,3 +39,21 @@ def coverage(camera: Camera, points: np.ndarray, spacing: float, supersample: in
 def silhouette(camera: Camera, points: np.ndarray, spacing: float) -> np.ndarray:
     """The particles' silhouette (H, W) bool: pixels at least half covered."""
     return coverage(camera, points, spacing) >= 0.5
+
+
+def distance_to(mask: np.ndarray) -> np.ndarray:
+    """Distance (px) from every pixel to the nearest pixel of ``mask``."""
+    return cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+
+
+def boundary_distance(simulated: np.ndarray, mask: np.ndarray, to_mask: np.ndarray) -> float:
+    """Symmetric mean boundary distance (px): half the mean distance of the simulated silhouette's pixels to the
+    mask (``to_mask``: its ``distance_to`` map) plus half that of the mask's pixels to the simulated silhouette."""
+    to_mask_mean = to_mask[simulated].mean() if simulated.any() else to_mask.max()
+    to_simulated_mean = distance_to(simulated)[mask].mean() if mask.any() else 0.0
+    return 0.5 * (float(to_mask_mean) + float(to_simulated_mean))
+
+
+def iou(a: np.ndarray, b: np.ndarray) -> float:
+    """Intersection over union of two boolean images (0 where both are empty)."""
+    return float((a & b).sum()) / max(float((a | b).sum()), 1.0)

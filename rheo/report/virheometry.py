@@ -12,14 +12,13 @@ from rheo.experiments.rheometer import FlowCurve
 from rheo.experiments.virheometry import Setup
 from rheo.report.fit import flow_curve_figure
 
+# pairs of Setup.cuboid_corners() that differ along one axis
 CUBOID_EDGES = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)]
 
 
 def camera_check_figure(setup: Setup, overlap: dict[str, float], margin: int = 25):
     """The first and last silhouettes with the initial cuboid's edges projected through the setup's camera."""
-    low, high = setup.cuboid
-    corners = np.array([[x, y, z] for x in (low[0], high[0]) for y in (low[1], high[1]) for z in (low[2], high[2])])
-    uv, _ = setup.camera.project(corners)
+    uv, _ = setup.camera.project(setup.cuboid_corners())
     rows, cols = np.nonzero(setup.masks[0] | setup.masks[-1])
     left, right = min(cols.min(), uv[:, 0].min()) - margin, max(cols.max(), uv[:, 0].max()) + margin
     top, bottom = min(rows.min(), uv[:, 1].min()) - margin, max(rows.max(), uv[:, 1].max()) + margin

@@ -26,9 +26,9 @@ def test_the_domain_holds_the_cuboid_and_the_footprint_inside_its_boundary_cells
     hi = np.array(scene.domain_origin) + scene.domain_size - kernels.BOUND * scene.dx
     for point in ([0.0, 0.0, -0.01], [0.06, HEIGHT, 0.05], [WIDTH, HEIGHT, DEPTH]):
         assert np.all(lo <= point) and np.all(np.array(point) <= hi)
-    positions = scene.initial_positions()
+    positions = scene.initial_positions
     assert np.all(positions.min(axis=0) > 0) and np.all(positions.max(axis=0) < [WIDTH, HEIGHT, DEPTH])
-    assert len(positions) * scene.particle_volume() == pytest.approx(WIDTH * HEIGHT * DEPTH)
+    assert len(positions) * scene.particle_volume == pytest.approx(WIDTH * HEIGHT * DEPTH)
     colliders = scene.colliders()
     assert [type(c).__name__ for c in colliders] == ["Floor", "Box", "Box", "Box"]
     # the 3 mm side walls are thickened outwards to two cells, so that grid nodes lie inside them

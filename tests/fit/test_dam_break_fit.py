@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from rheo.experiments.dam_break import dam_break_scene
-from rheo.fit.dam_break import OFFSET_STEP, DamBreakTarget, _distance_to, boundary_distance, shear_rates, skin
+from rheo.fit.dam_break import OFFSET_STEP, DamBreakTarget, shear_rates, skin
+from rheo.render.silhouette import boundary_distance, distance_to
 
 
 def test_shear_rate_of_simple_shear_and_of_a_rotation():
@@ -21,9 +22,9 @@ def test_boundary_distance_of_a_shifted_square():
     mask = np.zeros((60, 60), bool)
     mask[20:40, 20:40] = True
     shifted = np.roll(mask, 3, axis=1)
-    assert boundary_distance(mask, mask, _distance_to(mask)) == 0.0
+    assert boundary_distance(mask, mask, distance_to(mask)) == 0.0
     # 3 of 20 columns lie 1, 2, 3 px off on each side: mean (1+2+3)/20 each way
-    assert boundary_distance(shifted, mask, _distance_to(mask)) == pytest.approx(6 / 20, rel=1e-6)
+    assert boundary_distance(shifted, mask, distance_to(mask)) == pytest.approx(6 / 20, rel=1e-6)
 
 
 def test_the_first_frames_offset_is_found_on_silhouettes_of_a_known_rollout(channel):
