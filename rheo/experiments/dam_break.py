@@ -8,6 +8,7 @@ recorded at a fine spacing serves every candidate offset.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -20,6 +21,7 @@ from rheo.physics.simulator import Trajectory
 from rheo.vision.cameras import Camera
 
 WALL_CELLS = 2  # the least thickness of a wall, in grid cells
+GRAVITY = 9.81  # m/s^2, as in the recordings' setup (981 cm/s^2)
 
 
 class DamBreakError(ValueError):
@@ -85,7 +87,7 @@ class DamBreakScene:
 
     def simulator(self, material: HerschelBulkley) -> Simulator:
         return Simulator(material, resolution=self.resolution, domain_size=self.domain_size,
-                         domain_origin=self.domain_origin, colliders=self.colliders())
+                         domain_origin=self.domain_origin, colliders=self.colliders(), gravity=(0.0, -GRAVITY, 0.0))
 
     @cached_property
     def initial_positions(self) -> np.ndarray:
@@ -103,22 +105,31 @@ class DamBreakScene:
     def rollout(self, material: HerschelBulkley, duration: float, sample_dt: float) -> Trajectory:
         """Positions every ``sample_dt`` seconds from the release to ``duration``."""
         frames = int(np.ceil(duration / sample_dt - 1e-9))
+        simulator = self.simulator(material)
+        # the fastest a dam break flows is about the free fall from the material's height (the simulator's own
+        # bound, a fall from the domain's height, takes smaller steps; an unstable step is retried at half)
+        dt, _ = simulator.time_step(sample_dt, math.sqrt(2.0 * GRAVITY * self.setup.height))
         with torch.no_grad():
-            return self.simulator(material).rollout(
-                torch.as_tensor(self.initial_positions, dtype=torch.float32), torch.zeros(3), frames=frames,
-                frame_dt=sample_dt, particle_volume=self.particle_volume)
+            return simulator.rollout(torch.as_tensor(self.initial_positions, dtype=torch.float32), torch.zeros(3),
+                                     frames=frames, frame_dt=sample_dt, particle_volume=self.particle_volume, dt=dt)
 
 
-def dam_break_scene(setup: Setup, cells_per_height: int = 6, particles_per_cell: int = 2,
+def dam_break_scene(setup: Setup, cells_per_height: int = 8, cells_across: int = 7, particles_per_cell: int = 2,
                     margin: float = 0.25) -> DamBreakScene:
-    """The scene of ``setup`` on cells of H / ``cells_per_height``: a cube holding the channel and the material that
-    leaves it, the ``runout`` past the gate and as far to either side (grown by ``margin``), above
-    ``kernels.BOUND`` boundary cells on every face and one more cell behind the back wall and under the floor."""
+    """The scene of ``setup`` on cells of at most H / ``cells_per_height`` and at most the channel's depth /
+    ``cells_across``: a cube holding the channel and the material that leaves it, the ``runout`` past the gate and
+    as far to either side (grown by ``margin``), above ``kernels.BOUND`` boundary cells on every face and one more
+    cell behind the back wall and under the floor.
+
+    The channel's walls lie on node planes (a node on a wall's face belongs to the wall): the back wall at x = 0,
+    the floor at y = 0, the side walls at z = 0 and z = depth, a whole number of cells apart. Off the node planes,
+    the channel's width on the grid changes by up to two cells with the resolution."""
     spread = (1.0 + margin) * max(runout(setup), 0.5 * setup.height)
     low = np.array([0.0, -spread])
     high = np.array([setup.width + spread, setup.depth + spread])
     extent = max(*(high - low), (1.0 + margin) * setup.height)
-    dx = setup.height / cells_per_height
+    dx = setup.depth / math.ceil(max(setup.depth * cells_per_height / setup.height, cells_across) - 1e-9)
     resolution = int(np.ceil(extent / dx)) + 2 * kernels.BOUND + 1
-    origin = (-(kernels.BOUND + 1) * dx, -(kernels.BOUND + 1) * dx, 0.5 * (low[1] + high[1]) - 0.5 * resolution * dx)
+    origin = (-(kernels.BOUND + 1) * dx, -(kernels.BOUND + 1) * dx,
+              -round((0.5 * resolution * dx - 0.5 * (low[1] + high[1])) / dx) * dx)
     return DamBreakScene(setup, resolution * dx, origin, resolution, particles_per_cell)

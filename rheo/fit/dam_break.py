@@ -119,7 +119,8 @@ def comparisons(setups: dict[str, tuple[str, str]], simulation: dict) -> dict[st
     for name, (record, masks) in setups.items():
         with open(record) as f:
             setup = Setup.from_record(json.load(f), np.load(masks)["masks"])
-        scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["particles_per_cell"])
+        scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
+                                simulation["particles_per_cell"])
         target = DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]))
         objectives[name] = partial(_compare, target)
     return objectives

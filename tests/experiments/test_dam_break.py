@@ -37,6 +37,17 @@ def test_the_domain_holds_the_cuboid_and_the_footprint_inside_its_boundary_cells
     assert colliders[3].center[2] - colliders[3].half_extents[2] == pytest.approx(DEPTH)
 
 
+@pytest.mark.parametrize("cells_per_height, cells_across, expected_dx", [(4, 7, 0.005), (3, 10, 0.004), (5, 3, 0.004)])
+def test_the_walls_lie_on_node_planes_at_the_finer_of_the_two_resolutions(channel, cells_per_height, cells_across,
+                                                                           expected_dx):
+    scene = dam_break_scene(channel((0.0, 0.06, -0.01, 0.05)), cells_per_height, cells_across)
+    # H / 4 = 5 mm; depth / 10 = 4 mm; H / 5 = 4 mm
+    assert scene.dx == pytest.approx(expected_dx)
+    for axis, face in ((0, 0.0), (1, 0.0), (2, 0.0), (2, DEPTH)):
+        cells = (face - scene.domain_origin[axis]) / scene.dx
+        assert cells == pytest.approx(round(cells), abs=1e-9)
+
+
 @pytest.mark.parametrize("tau_y, flows", [(2000.0, False), (5.0, True)])
 def test_a_weak_material_leaves_through_the_gate_and_a_strong_one_stays(channel, tau_y, flows):
     # yield under its own weight where rho g H = 196 Pa exceeds the yield stress (a factor sqrt(3) aside)
