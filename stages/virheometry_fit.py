@@ -13,7 +13,7 @@ from tqdm.auto import tqdm
 from rheo.fit.dam_break import MOVING_RATE, NAMES, RESULT_KEYS, comparisons
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, multistart_search, start_step, survey_points
-from rheo.fit.uncertainty import profile_intervals
+from rheo.fit.uncertainty import profile_intervals, tolerated
 from rheo.io import write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import frames_figure
@@ -65,6 +65,14 @@ with Evaluator(partial(comparisons, setups, simulation), workers=smk.threads) as
     details = dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))
 bar.close()
 
+spread = tolerated([r["x"] for r in evaluations.records], [r["loss"] for r in evaluations.records],
+                   settings["tolerance"])
+ranges = ", ".join(f"{n} {np.exp(lo):.3g}-{np.exp(hi):.3g}" for n, (lo, hi) in zip(NAMES, spread.ranges, strict=True))
+if spread.ridge:
+    log.warning("the recordings leave the law on a ridge: %d evaluated materials within the tolerance span %s%s",
+                spread.count, ranges, " (one setup only)" if len(setups) == 1 else "")
+else:
+    log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
 rates = np.concatenate([d.shear_rates for d in details.values()])
 band = np.percentile(rates, [5, 95]).tolist() if len(rates) else None
 params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined}
@@ -80,6 +88,10 @@ write_json_atomic(output, {
     **params, "setups": {name: {"loss_px": d.loss, "first_frame_after_release_s": d.offset,
                                 "boundary_distance_px": d.distances.tolist(), "silhouette_iou": d.iou.tolist(),
                                 "outflow_iou": d.outflow_iou.tolist()} for name, d in details.items()},
+    "within_tolerance": {"evaluations": spread.count, "ridge": spread.ridge,
+                         **{RESULT_KEYS[n]: np.exp(r).tolist() for n, r in zip(NAMES, spread.ranges, strict=True)},
+                         "spread_direction_log": None if spread.direction is None
+                         else dict(zip(NAMES, spread.direction.tolist(), strict=True))},
     "shear_rate_band_per_s": band, "loss_px": loss, "evidence": evidence, "tolerance": settings["tolerance"],
     "elastic_constants_Pa": {"mu": simulation["mu"], "lam": simulation["lam"]},
     "runtime_s": time.time() - started})

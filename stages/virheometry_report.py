@@ -26,9 +26,20 @@ def law_rows(fit: dict) -> list[list[str]]:
              "yes" if fit[key]["determined"] else "no"] for key, label in KEYS.items()]
 
 
+def spread_text(fit: dict) -> str:
+    spread = fit["within_tolerance"]
+    ranges = ", ".join(f"{label} {spread[key][0]:.3g}-{spread[key][1]:.3g}" for key, label in KEYS.items())
+    verdict = ("the recordings leave the law on a ridge: materials far apart fit them equally well"
+               if spread["ridge"] else "no ridge")
+    alone = "; one setup only" if len(fit["setups"]) == 1 else ""
+    return f"{spread['evaluations']} evaluated materials within the tolerance: {ranges} ({verdict}{alone})"
+
+
 band = params["shear_rate_band_per_s"]
 reached = "none: nothing moved" if band is None else f"{band[0]:.3g}-{band[1]:.3g} 1/s"
 sections = [("Recovered law", table_tag(["parameter", "value", "95 % interval", "determined"], law_rows(params))
+             + f"<p>The intervals are profiles along each parameter with the others at the optimum. "
+             f"{spread_text(params)}.</p>"
              + f"<p>Shear rates reached (5th-95th percentile of the moving particles): {reached}. "
              f"Runtime {params['runtime_s'] / 60:.1f} min.</p>"),
             ("Setups", table_tag(["setup", "first frame after release (s)", "loss (px)", "mean IoU",
@@ -53,12 +64,14 @@ if curves and band is not None:
 sections.append(("Flow curve", figure_tag(flow_figure(law, samples, band, curves),
                                           "recovered law, 95 % band from the intervals") + comparison))
 if smk.input.single:
-    header = ["fit", *[f"{label} 95 % interval (width, factor)" for label in KEYS.values()]]
+    header = ["fit", *[f"{label} 95 % interval (width, factor)" for label in KEYS.values()],
+              "evaluated materials within the tolerance"]
     rows = []
     for path in [*smk.input.single, smk.input.params]:
         fit = read_json(path)
         rows.append([Path(path).parent.name, *[f"[{fit[k]['ci95'][0]:.3g}, {fit[k]['ci95'][1]:.3g}] "
-                                               f"({fit[k]['ci95'][1] / fit[k]['ci95'][0]:.2f})" for k in KEYS]])
+                                               f"({fit[k]['ci95'][1] / fit[k]['ci95'][0]:.2f})" for k in KEYS],
+                     spread_text(fit)])
     sections.append(("One setup against both", table_tag(header, rows)))
 sections.append(("Camera checks", "".join(image_tag(Path(p).read_bytes(), "png", Path(p).parent.name)
                                           for p in smk.input.camera_checks)))

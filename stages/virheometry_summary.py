@@ -21,11 +21,13 @@ for material, path in zip(smk.params.materials, smk.input, strict=True):
         cells.append(f"{p['value']:.3g} [{p['ci95'][0]:.3g}, {p['ci95'][1]:.3g}]" + ("" if p["determined"] else " *"))
     cells.append(", ".join(f"{np.mean(s['silhouette_iou']):.3f}" for s in fit["setups"].values()))
     band = fit["shear_rate_band_per_s"]
-    cells += ["none" if band is None else f"{band[0]:.2g}-{band[1]:.2g}", f"{fit['runtime_s'] / 60:.1f}"]
+    cells += ["none" if band is None else f"{band[0]:.2g}-{band[1]:.2g}",
+              "yes" if fit["within_tolerance"]["ridge"] else "no", f"{fit['runtime_s'] / 60:.1f}"]
     rows.append(cells)
     laws[material] = (tuple(fit[k]["value"] for k in KEYS), None if band is None else tuple(band))
 body = (table_tag(["material", "tau_y (Pa) [95 %]", "K (Pa s^n) [95 %]", "n [95 %]", "mean IoU per setup",
-                   "shear rates reached (1/s)", "runtime (min)"], rows)
-        + "<p>* not determined by the recordings (95 % interval wider than a factor 4).</p>"
+                   "shear rates reached (1/s)", "ridge", "runtime (min)"], rows)
+        + "<p>* not determined by the recordings (95 % interval wider than a factor 4). Ridge: the evaluated "
+          "materials within the tolerance spread over a factor 4 or more in some parameter.</p>"
         + figure_tag(summary_figure(laws), "recovered flow curves"))
 write_text_atomic(smk.output[0], page("Real dam breaks: twelve materials", body))

@@ -103,3 +103,37 @@ def profile_intervals(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int
     evidence = {"loss": loss, "threshold": threshold, "profile_offsets_log": offsets.tolist(),
                 "profiles": {names[i]: v.tolist() for i, v in profiles.items()}, "unbounded": unbounded}
     return x, loss, intervals, evidence
+
+
+
+@dataclass
+class Tolerated:
+    """The evaluated materials whose loss lies within the tolerance of the lowest: how many, each log-parameter's
+    range over them (parameters, 2), and the direction along which they spread most (unit vector in log-parameters;
+    None below three points). Unlike the conditional profiles, the range sees parameters that trade against each
+    other, but only where the search evaluated."""
+
+    count: int
+    ranges: np.ndarray
+    direction: np.ndarray | None
+
+    @property
+    def span(self) -> float:
+        """The largest factor (high / low) of any parameter over the tolerated materials."""
+        return float(np.exp(np.max(self.ranges[:, 1] - self.ranges[:, 0])))
+
+    @property
+    def ridge(self) -> bool:
+        """Whether the tolerated materials spread along a ridge: some parameter over at least DETERMINED_SPAN."""
+        return self.span >= DETERMINED_SPAN
+
+
+def tolerated(points: np.ndarray, losses: np.ndarray, tolerance: float) -> Tolerated:
+    """The evaluated ``points`` (log-parameters) whose ``losses`` lie within ``tolerance`` (relative) of the lowest."""
+    points, losses = np.asarray(points, dtype=float), np.asarray(losses, dtype=float)
+    inside = points[losses <= (1.0 + tolerance) * losses.min()]
+    direction = None
+    if len(inside) >= 3:
+        direction = np.linalg.eigh(np.cov(inside.T))[1][:, -1]
+        direction = direction * np.sign(direction[np.argmax(np.abs(direction))])
+    return Tolerated(len(inside), np.column_stack([inside.min(axis=0), inside.max(axis=0)]), direction)

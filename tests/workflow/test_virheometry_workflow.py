@@ -17,6 +17,10 @@ def test_a_setup_is_imported_and_fitted(workflow):
     for key in ("tau_y_Pa", "K_Pa_s_n", "n"):
         low, high = fit[key]["ci95"]
         assert low <= fit[key]["value"] <= high and isinstance(fit[key]["determined"], bool)
+    spread = fit["within_tolerance"]
+    assert spread["evaluations"] >= 1 and isinstance(spread["ridge"], bool)
+    for key in ("tau_y_Pa", "K_Pa_s_n", "n"):
+        assert spread[key][0] <= fit[key]["value"] <= spread[key][1]
     (name, result), = fit["setups"].items()
     assert name == "ref_Carbonara_2.0_2.5_2" and len(result["silhouette_iou"]) == 8
     assert 0.0 <= result["first_frame_after_release_s"] <= 0.05

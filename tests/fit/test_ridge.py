@@ -1,0 +1,37 @@
+"""The evaluated materials within the tolerance: their ranges follow a ridge of the loss where two parameters trade
+against each other, against the analytic region of a quadratic loss."""
+
+import numpy as np
+import pytest
+
+from rheo.fit.uncertainty import tolerated
+
+MINIMUM = np.array([1.0, 0.5, -0.7])
+RIDGE = np.array([1.0, -1.0, 0.0]) / np.sqrt(2.0)  # log tau_y up, log K down: the flat direction
+STIFF = np.array([1.0, 1.0, 0.0]) / np.sqrt(2.0)
+FLOOR, TOLERANCE = 0.5, 0.1
+
+
+def loss(points: np.ndarray, ridge_curvature: float) -> np.ndarray:
+    d = points - MINIMUM
+    return FLOOR + 0.5 * (ridge_curvature * (d @ RIDGE) ** 2 + 8.0 * (d @ STIFF) ** 2 + 2.0 * d[:, 2] ** 2)
+
+
+def test_materials_within_the_tolerance_spread_along_the_ridge_as_far_as_the_quadratic_allows():
+    points = MINIMUM + np.random.default_rng(1).uniform(-3.0, 3.0, (20000, 3))
+    points = np.vstack([MINIMUM, points])
+    found = tolerated(points, loss(points, 0.02), TOLERANCE)
+    assert abs(found.direction @ RIDGE) == pytest.approx(1.0, abs=0.02)
+    # along the ridge 0.5 c t^2 <= tolerance * floor: log tau_y within t / sqrt(2) (plus the stiff direction's share)
+    hessian = 0.02 * np.outer(RIDGE, RIDGE) + 8.0 * np.outer(STIFF, STIFF) + np.diag([0.0, 0.0, 2.0])
+    half = np.sqrt(2.0 * TOLERANCE * FLOOR * np.diag(np.linalg.inv(hessian)))
+    assert np.all(found.ranges[:, 0] >= MINIMUM - half - 1e-9) and np.all(found.ranges[:, 1] <= MINIMUM + half + 1e-9)
+    # random points reach most of the thin region's extent
+    assert np.all(found.ranges[:, 1] - found.ranges[:, 0] > 0.75 * 2.0 * half)
+    assert found.ridge and found.count == np.sum(loss(points, 0.02) <= (1 + TOLERANCE) * FLOOR)
+
+
+def test_a_well_curved_loss_leaves_no_ridge():
+    points = MINIMUM + np.random.default_rng(2).uniform(-1.0, 1.0, (5000, 3))
+    points = np.vstack([MINIMUM, points])
+    assert not tolerated(points, loss(points, 8.0), TOLERANCE).ridge
