@@ -105,7 +105,6 @@ def profile_intervals(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int
     return x, loss, intervals, evidence
 
 
-
 @dataclass
 class Tolerated:
     """The evaluated materials whose loss lies within the tolerance of the lowest: how many, each log-parameter's
