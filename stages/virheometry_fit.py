@@ -13,7 +13,7 @@ from tqdm.auto import tqdm
 from rheo.fit.dam_break import MOVING_RATE, NAMES, RESULT_KEYS, comparisons
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, multistart_search, start_step, survey_points
-from rheo.fit.uncertainty import profile_intervals, tolerated
+from rheo.fit.uncertainty import profile_intervals, profile_points, tolerated
 from rheo.io import write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import frames_figure
@@ -59,7 +59,8 @@ with Evaluator(partial(comparisons, setups, simulation), workers=smk.threads) as
                              for i in range(0, len(points), chunk)])
     starts = points[np.argsort(losses, kind="stable")[:settings["starts"]]]
     x, loss = multistart_search(evaluate, list(starts), start_step((high - low).min(), settings["samples"], len(NAMES)),
-                                settings["step"], settings["evaluations"], (low, high))
+                                settings["step"], settings["evaluations"], (low, high), side_by_side=True)
+    evaluations.evaluate_many(joint, profile_points(x, range(len(NAMES)), settings["profile_step"]), "profile")
     x, loss, intervals, evidence = profile_intervals(evaluate, x, range(len(NAMES)), NAMES, settings["profile_step"],
                                                      settings["tolerance"], (low, high))
     details = dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))

@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import json
 import logging
+import threading
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -67,6 +69,7 @@ class EvaluationLog:
                 self.records = stored["records"]
                 logger.info("replaying %d stored evaluations from %s", len(self.records), self.path)
         self._index = {self._point_key(r["phase"], r["x"]): r for r in self.records}
+        self._lock = threading.Lock()  # searches running side by side share the log
 
     @staticmethod
     def _point_key(phase: str, x) -> str:
@@ -78,14 +81,18 @@ class EvaluationLog:
     def evaluate_many(self, objective: Callable[[list[np.ndarray]], list[float]], points: Sequence[np.ndarray],
                       phase: str) -> list[float]:
         """Losses of ``points``, those not stored evaluated together by ``objective`` (on several processes, say)."""
-        todo = [x for x in points if self._point_key(phase, x) not in self._index]
+        with self._lock:
+            todo = [x for x in points if self._point_key(phase, x) not in self._index]
         if todo:
-            for x, loss in zip(todo, objective(todo), strict=True):
-                record = {"phase": phase, "x": [float(v) for v in x], "loss": float(loss)}
-                self.records.append(record)
-                self._index[self._point_key(phase, x)] = record
-            self._write()
-        return [self._index[self._point_key(phase, x)]["loss"] for x in points]
+            losses = objective(todo)
+            with self._lock:
+                for x, loss in zip(todo, losses, strict=True):
+                    record = {"phase": phase, "x": [float(v) for v in x], "loss": float(loss)}
+                    self.records.append(record)
+                    self._index[self._point_key(phase, x)] = record
+                self._write()
+        with self._lock:
+            return [self._index[self._point_key(phase, x)]["loss"] for x in points]
 
     def _write(self) -> None:
         write_atomic(self.path, lambda p: p.write_text(json.dumps({"key": self.key, "records": self.records})))
@@ -129,14 +136,24 @@ def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float, evaluatio
 
 
 def multistart_search(evaluate: Evaluate, starts: Sequence[np.ndarray], start_step: float, step: float,
-                      evaluations: int, box: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float]:
+                      evaluations: int, box: tuple[np.ndarray, np.ndarray] | None = None,
+                      side_by_side: bool = False) -> tuple[np.ndarray, float]:
     """Nelder-Mead from each of ``starts`` (initial simplex ``start_step``) with half of ``evaluations`` shared among
-    them, then from the best point found with a fresh simplex of ``step`` and the remaining evaluations."""
+    them, then from the best point found with a fresh simplex of ``step`` and the remaining evaluations.
+    ``side_by_side``: the searches from the starts run in threads at the same time (for an ``evaluate`` that hands
+    its work to other processes and is thread-safe); the result is that of running them one after another."""
     if len(starts) == 1:
         return simplex_search(evaluate, starts[0], step, evaluations, "full", box=box)
     each = evaluations // (2 * len(starts))
-    found = [simplex_search(evaluate, start, start_step, each, f"start {k + 1}", box=box)
-             for k, start in enumerate(starts)]
+
+    def search(k: int) -> tuple[np.ndarray, float]:
+        return simplex_search(evaluate, starts[k], start_step, each, f"start {k + 1}", box=box)
+
+    if side_by_side:
+        with ThreadPoolExecutor(len(starts)) as threads:
+            found = list(threads.map(search, range(len(starts))))
+    else:
+        found = [search(k) for k in range(len(starts))]
     best = min(range(len(found)), key=lambda k: found[k][1])
     logger.info("best of %d starts: start %d, loss %.5g", len(starts), best + 1, found[best][1])
     return simplex_search(evaluate, found[best][0], step, evaluations - each * len(starts), "full", box=box)

@@ -64,6 +64,18 @@ def log_draws(intervals: Sequence[Interval], count: int = 400, seed: int = 0, cl
 
 
 Evaluate = Callable[[np.ndarray, str], float]  # loss at a point of log-parameters, in a named phase
+PROFILE_OFFSETS = np.array([-2.0, -1.0, 0.0, 1.0, 2.0])  # the profile points, in steps
+
+
+def profile_points(centre: np.ndarray, free: Sequence[int], step: float) -> list[np.ndarray]:
+    """Every point ``profile_intervals`` evaluates, to evaluate them together beforehand."""
+    points = [centre]
+    for i in free:
+        for d in PROFILE_OFFSETS[PROFILE_OFFSETS != 0] * step:
+            point = centre.copy()
+            point[i] += d
+            points.append(point)
+    return points
 
 
 def profile_intervals(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int], names: Sequence[str], step: float,
@@ -75,7 +87,7 @@ def profile_intervals(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int
     side where the profile stays low). A parabola over a wide step smooths the roughness pixel edges give the loss,
     which would make a local Hessian meaningless. Returns the best point seen, its loss, the intervals and the
     evidence."""
-    offsets = np.array([-2.0, -1.0, 0.0, 1.0, 2.0]) * step
+    offsets = PROFILE_OFFSETS * step
     centre_loss = evaluate(centre, phase)
     profiles = {}
     for i in free:

@@ -1,11 +1,16 @@
 """The silhouette fit's search: the quadratic model of the loss, its tolerance region, the survey and simplex, holding
 undetermined parameters, and replaying stored evaluations."""
 
+import json
+import threading
+import time
+from functools import partial
+
 import numpy as np
 import pytest
 
 from rheo.fit.search import EvaluationLog, estimate, multistart_search, simplex_search, survey
-from rheo.fit.uncertainty import parabola_region
+from rheo.fit.uncertainty import parabola_region, profile_intervals, profile_points
 
 
 def test_parabola_region_is_where_the_parabola_stays_below_the_threshold():
@@ -53,6 +58,36 @@ def test_searches_from_several_starts_find_the_deeper_of_two_basins():
     x, value = multistart_search(evaluate, starts, 0.5, 0.2, 200)
     assert np.allclose(x, deep, atol=0.01) and value == pytest.approx(0.10, abs=1e-4)
     assert phases.count("start 1") <= 50 and phases.count("start 2") <= 50 and phases[-1] == "full"
+
+
+def test_searches_side_by_side_run_at_once_and_find_what_they_find_one_after_another(tmp_path):
+    shallow, deep = np.log([30.0, 3.0]), np.log([3000.0, 30.0])
+    in_flight, most = [0], [0]
+    lock = threading.Lock()
+
+    def loss(x):
+        return min(0.11 + np.sum((x - shallow) ** 2), 0.10 + np.sum((x - deep) ** 2))
+
+    def slow(points):  # hands its work elsewhere and waits, as the worker processes do
+        with lock:
+            in_flight[0] += 1
+            most[0] = max(most[0], in_flight[0])
+        time.sleep(0.002)
+        with lock:
+            in_flight[0] -= 1
+        return [loss(x) for x in points]
+
+    starts = [shallow + 0.5, deep - 1.0]
+    results, stored = [], []
+    for side_by_side in (False, True):
+        log = EvaluationLog(tmp_path / f"{side_by_side}.json", "key")
+        evaluate = partial(lambda x, phase, log: log.evaluate_many(slow, [x], phase)[0], log=log)
+        results.append(multistart_search(evaluate, starts, 0.5, 0.2, 80, side_by_side=side_by_side))
+        assert most[0] == (2 if side_by_side else 1)
+        stored.append(sorted(json.dumps(r) for r in json.loads(log.path.read_text())["records"]))
+    (x0, v0), (x1, v1) = results
+    assert np.array_equal(x0, x1) and v0 == v1 and np.allclose(x1, deep, atol=0.05)
+    assert stored[0] == stored[1]  # the same evaluations, every one stored
 
 
 def test_a_parameter_the_loss_ignores_is_held_at_its_guess_and_flagged():
@@ -135,3 +170,16 @@ def test_points_evaluated_together_are_stored_and_not_evaluated_again(tmp_path):
     again = EvaluationLog(tmp_path / "evaluations.json", "key")
     assert again.evaluate_many(objective, points, "survey") == [1.0, 2.0, 5.0, 10.0]
     assert batches == [3, 1]  # only the new point is evaluated after the restart
+
+
+def test_the_profile_evaluates_exactly_its_listed_points():
+    centre = np.log([3.0, 2.0, 0.5])
+    listed = {tuple(p) for p in profile_points(centre, [0, 2], 0.2)}
+    seen = set()
+
+    def evaluate(x, phase):
+        seen.add(tuple(x))
+        return 1.0 + np.sum((x - centre) ** 2)
+
+    profile_intervals(evaluate, centre, [0, 2], ["a", "b", "c"], 0.2, 0.1, (centre - 5, centre + 5))
+    assert seen == listed and len(listed) == 9
