@@ -89,7 +89,7 @@ write_json_atomic(output, {
     **params, "setups": {name: {"loss_px": d.loss, "first_frame_after_release_s": d.offset,
                                 "boundary_distance_px": d.distances.tolist(), "silhouette_iou": d.iou.tolist(),
                                 "outflow_iou": d.outflow_iou.tolist()} for name, d in details.items()},
-    "within_tolerance": {"evaluations": spread.count, "ridge": spread.ridge,
+    "within_tolerance": {"evaluations": spread.count, "ridge": spread.ridge, "laws": np.exp(spread.points).tolist(),
                          **{RESULT_KEYS[n]: np.exp(r).tolist() for n, r in zip(NAMES, spread.ranges, strict=True)},
                          "spread_direction_log": None if spread.direction is None
                          else dict(zip(NAMES, spread.direction.tolist(), strict=True))},

@@ -8,7 +8,6 @@ import numpy as np
 
 from rheo.experiments.rheometer import log_rms_error, read_flow_curve
 from rheo.fit.dam_break import RESULT_KEYS
-from rheo.fit.uncertainty import Interval, log_draws
 from rheo.io import read_json, write_text_atomic
 from rheo.report.html import figure_tag, image_tag, page, table_tag
 from rheo.report.virheometry import flow_figure
@@ -50,7 +49,7 @@ sections = [("Recovered law", table_tag(["parameter", "value", "95 % interval", 
              + image_tag(Path(smk.input.frames).read_bytes(), "png", "recorded and simulated silhouettes"))]
 curves = [read_flow_curve(p) for p in smk.input.rheometer]
 law = tuple(params[k]["value"] for k in KEYS)
-samples = np.exp(log_draws([Interval(params[k]["value"], *params[k]["ci95"]) for k in KEYS]))
+tolerated_laws = np.array(params["within_tolerance"]["laws"])
 comparison = ""
 if curves and band is not None:
     rows = []
@@ -61,8 +60,9 @@ if curves and band is not None:
         log.info("%s: RMS log10 error %.3f over %d points in %.3g-%.3g 1/s", curve.name, error,
                  len(inside.shear_rate), *band)
     comparison = table_tag(["rheometer curve", "temperature (C)", "points in the band", "RMS log10 error"], rows)
-sections.append(("Flow curve", figure_tag(flow_figure(law, samples, band, curves),
-                                          "recovered law, 95 % band from the intervals") + comparison))
+sections.append(("Flow curve", figure_tag(flow_figure(law, tolerated_laws, band, curves, envelope=True),
+                                          "recovered law; band: the curves of every evaluated material within the "
+                                          "tolerance of the best") + comparison))
 if smk.input.single:
     header = ["fit", *[f"{label} 95 % interval (width, factor)" for label in KEYS.values()],
               "evaluated materials within the tolerance"]

@@ -119,14 +119,18 @@ def profile_intervals(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int
 
 @dataclass
 class Tolerated:
-    """The evaluated materials whose loss lies within the tolerance of the lowest: how many, each log-parameter's
-    range over them (parameters, 2), and the direction along which they spread most (unit vector in log-parameters;
-    None below three points). Unlike the conditional profiles, the range sees parameters that trade against each
-    other, but only where the search evaluated."""
+    """The evaluated materials whose loss lies within the tolerance of the lowest: their log-parameters (count,
+    parameters), each one's range over them (parameters, 2), and the direction along which they spread most (unit
+    vector in log-parameters; None below three points). Unlike the conditional profiles, the range sees parameters
+    that trade against each other, but only where the search evaluated."""
 
-    count: int
+    points: np.ndarray
     ranges: np.ndarray
     direction: np.ndarray | None
+
+    @property
+    def count(self) -> int:
+        return len(self.points)
 
     @property
     def span(self) -> float:
@@ -147,4 +151,4 @@ def tolerated(points: np.ndarray, losses: np.ndarray, tolerance: float) -> Toler
     if len(inside) >= 3:
         direction = np.linalg.eigh(np.cov(inside.T))[1][:, -1]
         direction = direction * np.sign(direction[np.argmax(np.abs(direction))])
-    return Tolerated(len(inside), np.column_stack([inside.min(axis=0), inside.max(axis=0)]), direction)
+    return Tolerated(inside, np.column_stack([inside.min(axis=0), inside.max(axis=0)]), direction)

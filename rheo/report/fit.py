@@ -65,14 +65,17 @@ def training_figure(history: list[dict], names: list[str], truth: dict[str, floa
     return fig
 
 
-def flow_curve_figure(tau_y: float, K: float, n: float, samples: np.ndarray | None, truth: tuple | None = None):
-    """tau(gamma_dot) = tau_y + K gamma_dot^n with the 95 % band of ``samples`` (rows of tau_y, K, n)."""
+def flow_curve_figure(tau_y: float, K: float, n: float, samples: np.ndarray | None, truth: tuple | None = None,
+                      envelope: bool = False):
+    """tau(gamma_dot) = tau_y + K gamma_dot^n with the 95 % band of ``samples`` (rows of tau_y, K, n), or with
+    ``envelope`` the range of their curves (materials that fit equally well)."""
     rate = np.logspace(-2, 3, 200)
     fig, ax = plt.subplots(figsize=(5.5, 3.8))
     if samples is not None and len(samples):
         curves = samples[:, :1] + samples[:, 1:2] * rate[None, :] ** samples[:, 2:3]
-        ax.fill_between(rate, *np.percentile(curves, [2.5, 97.5], axis=0), color="tab:blue", alpha=0.2,
-                        label="95 % band")
+        label = "materials within the tolerance" if envelope else "95 % band"
+        ax.fill_between(rate, *np.percentile(curves, [0, 100] if envelope else [2.5, 97.5], axis=0),
+                        color="tab:blue", alpha=0.2, label=label)
     ax.plot(rate, tau_y + K * rate**n, color="tab:blue", label="recovered")
     if truth is not None:
         ax.plot(rate, truth[0] + truth[1] * rate ** truth[2], "--", color="tab:green", label="truth")

@@ -63,9 +63,10 @@ def frames_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], fr
 
 
 def flow_figure(law: tuple[float, float, float], samples: np.ndarray, band: tuple[float, float] | None,
-                curves: list[FlowCurve]):
-    """The recovered flow curve with its 95 % band, the shear rates the flow reached and the rheometer's points."""
-    fig = flow_curve_figure(*law, samples)
+                curves: list[FlowCurve], envelope: bool = False):
+    """The recovered flow curve with its band (``flow_curve_figure``), the shear rates the flow reached and the
+    rheometer's points."""
+    fig = flow_curve_figure(*law, samples, envelope=envelope)
     ax = fig.axes[0]
     if band is not None:
         ax.axvspan(*band, color="0.85", zorder=0, label="shear rates reached")
