@@ -95,7 +95,7 @@ write_json_atomic(output, {
                          else dict(zip(NAMES, spread.direction.tolist(), strict=True))},
     "shear_rate_band_per_s": band, "loss_px": loss, "evidence": evidence, "tolerance": settings["tolerance"],
     "elastic_constants_Pa": {"mu": simulation["mu"], "lam": simulation["lam"]},
-    "runtime_s": time.time() - started})
+    "runtime_s": evaluations.earlier_seconds + time.time() - started})
 
 
 def write_history(path: Path) -> None:

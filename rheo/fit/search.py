@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import logging
 import threading
+import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -63,10 +64,13 @@ class EvaluationLog:
     def __init__(self, path: str | Path, key: str) -> None:
         self.path, self.key = Path(path), key
         self.records: list[dict] = []
+        self.earlier_seconds = 0.0  # the time the interrupted runs spent up to their last stored evaluation
+        self._started = time.monotonic()
         if self.path.is_file():
             stored = json.loads(self.path.read_text())
             if stored.get("key") == key:
                 self.records = stored["records"]
+                self.earlier_seconds = stored.get("seconds", 0.0)
                 logger.info("replaying %d stored evaluations from %s", len(self.records), self.path)
         self._index = {self._point_key(r["phase"], r["x"]): r for r in self.records}
         self._lock = threading.Lock()  # searches running side by side share the log
@@ -95,7 +99,9 @@ class EvaluationLog:
             return [self._index[self._point_key(phase, x)]["loss"] for x in points]
 
     def _write(self) -> None:
-        write_atomic(self.path, lambda p: p.write_text(json.dumps({"key": self.key, "records": self.records})))
+        seconds = self.earlier_seconds + time.monotonic() - self._started
+        write_atomic(self.path, lambda p: p.write_text(json.dumps({"key": self.key, "records": self.records,
+                                                                  "seconds": seconds})))
 
 
 def survey_points(centre: np.ndarray, half_width: float | np.ndarray, samples: int, seed: int = 0) -> np.ndarray:

@@ -117,6 +117,7 @@ def test_an_interrupted_search_replays_its_stored_evaluations(tmp_path):
 
     def loss(x):
         calls.append(x)
+        time.sleep(0.001)
         return float(np.sum((x - 1.0) ** 2))
 
     class Interrupt(Exception):
@@ -134,6 +135,7 @@ def test_an_interrupted_search_replays_its_stored_evaluations(tmp_path):
     assert len(first.records) == 25
     calls.clear()
     resumed = EvaluationLog(path, "key")
+    assert resumed.earlier_seconds >= 0.024  # the interrupted run's time up to its 25th evaluation is carried on
     x_resumed, _ = simplex_search(lambda x, p: resumed.evaluate(loss, x, p), np.zeros(2), 0.2, 60, "full")
     calls_after_resume = len(calls)
     calls.clear()
