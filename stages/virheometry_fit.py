@@ -1,6 +1,7 @@
 """virheometry_fit: tau_y, K and n of one material from its dam breaks (all its setups jointly, or one), with the
-first frame's time after the release found for each setup. The survey's points run on every core; each later
-evaluation simulates the setups side by side. Every evaluation is stored, so an interrupted fit resumes."""
+first frame's time after the release found for each setup. The survey's points and the profile's run on every
+core; the searches from the survey's best points run side by side, each evaluation simulating the setups side by
+side. Every evaluation is stored, so an interrupted fit resumes."""
 
 import csv
 import time

@@ -144,9 +144,10 @@ class Tolerated:
 
 
 def tolerated(points: np.ndarray, losses: np.ndarray, tolerance: float) -> Tolerated:
-    """The evaluated ``points`` (log-parameters) whose ``losses`` lie within ``tolerance`` (relative) of the lowest."""
+    """The evaluated ``points`` (log-parameters) whose ``losses`` lie within ``tolerance`` (relative) of the lowest,
+    each once (a point evaluated in two phases is one material)."""
     points, losses = np.asarray(points, dtype=float), np.asarray(losses, dtype=float)
-    inside = points[losses <= (1.0 + tolerance) * losses.min()]
+    inside = np.unique(points[losses <= (1.0 + tolerance) * losses.min()], axis=0)
     direction = None
     if len(inside) >= 3:
         direction = np.linalg.eigh(np.cov(inside.T))[1][:, -1]

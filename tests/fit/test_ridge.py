@@ -35,3 +35,9 @@ def test_a_well_curved_loss_leaves_no_ridge():
     points = MINIMUM + np.random.default_rng(2).uniform(-1.0, 1.0, (5000, 3))
     points = np.vstack([MINIMUM, points])
     assert not tolerated(points, loss(points, 8.0), TOLERANCE).ridge
+
+
+def test_a_material_evaluated_twice_counts_once():
+    points = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [3.0, 0.0, 0.0]])
+    found = tolerated(points, np.array([1.0, 1.0, 1.05, 2.0]), TOLERANCE)
+    assert found.count == 2 and found.ranges[0].tolist() == [0.0, 0.1]
