@@ -119,27 +119,37 @@ def profile_intervals(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int
 
 @dataclass
 class Tolerated:
-    """The evaluated materials whose loss lies within the tolerance of the lowest: their log-parameters (count,
-    parameters), each one's range over them (parameters, 2), and the direction along which they spread most (unit
-    vector in log-parameters; None below three points). Unlike the conditional profiles, the range sees parameters
-    that trade against each other, but only where the search evaluated."""
+    """The evaluated materials whose loss lies within the tolerance of the lowest, as log-parameters (count,
+    parameters). Unlike the conditional profiles, their ranges see parameters that trade against each other, but
+    only where the search evaluated."""
 
     points: np.ndarray
-    ranges: np.ndarray
-    direction: np.ndarray | None
 
     @property
     def count(self) -> int:
         return len(self.points)
 
     @property
+    def ranges(self) -> np.ndarray:
+        """Each log-parameter's range over the materials (parameters, 2)."""
+        return np.column_stack([self.points.min(axis=0), self.points.max(axis=0)])
+
+    @property
+    def direction(self) -> np.ndarray | None:
+        """The unit vector (log-parameters) along which the materials spread most; None below three."""
+        if self.count < 3:
+            return None
+        direction = np.linalg.eigh(np.cov(self.points.T))[1][:, -1]
+        return direction * np.sign(direction[np.argmax(np.abs(direction))])
+
+    @property
     def span(self) -> float:
-        """The largest factor (high / low) of any parameter over the tolerated materials."""
+        """The largest factor (high / low) of any parameter over the materials."""
         return float(np.exp(np.max(self.ranges[:, 1] - self.ranges[:, 0])))
 
     @property
     def ridge(self) -> bool:
-        """Whether the tolerated materials spread along a ridge: some parameter over at least DETERMINED_SPAN."""
+        """Whether the materials spread along a ridge: some parameter over at least DETERMINED_SPAN."""
         return self.span >= DETERMINED_SPAN
 
 
@@ -147,9 +157,4 @@ def tolerated(points: np.ndarray, losses: np.ndarray, tolerance: float) -> Toler
     """The evaluated ``points`` (log-parameters) whose ``losses`` lie within ``tolerance`` (relative) of the lowest,
     each once (a point evaluated in two phases is one material)."""
     points, losses = np.asarray(points, dtype=float), np.asarray(losses, dtype=float)
-    inside = np.unique(points[losses <= (1.0 + tolerance) * losses.min()], axis=0)
-    direction = None
-    if len(inside) >= 3:
-        direction = np.linalg.eigh(np.cov(inside.T))[1][:, -1]
-        direction = direction * np.sign(direction[np.argmax(np.abs(direction))])
-    return Tolerated(inside, np.column_stack([inside.min(axis=0), inside.max(axis=0)]), direction)
+    return Tolerated(np.unique(points[losses <= (1.0 + tolerance) * losses.min()], axis=0))
