@@ -88,15 +88,9 @@ def profile_intervals(evaluate: Evaluate, centre: np.ndarray, free: Sequence[int
     which would make a local Hessian meaningless. Returns the best point seen, its loss, the intervals and the
     evidence."""
     offsets = PROFILE_OFFSETS * step
-    centre_loss = evaluate(centre, phase)
-    profiles = {}
-    for i in free:
-        values = []
-        for d in offsets:
-            point = centre.copy()
-            point[i] += d
-            values.append(centre_loss if d == 0 else evaluate(point, phase))
-        profiles[i] = np.array(values)
+    centre_loss, *around = [evaluate(point, phase) for point in profile_points(centre, free, step)]
+    side = len(offsets) - 1  # points per parameter besides the centre
+    profiles = {i: np.insert(around[k * side:(k + 1) * side], side // 2, centre_loss) for k, i in enumerate(free)}
     lowest = min(centre_loss, *(p.min() for p in profiles.values()))
     threshold = (1.0 + tolerance) * lowest
     x, loss = centre.copy(), centre_loss
