@@ -3,11 +3,13 @@ how far the recording shows it going.
 
 The gate is not simulated: the material is released at once at t = 0, and the time of the first recorded frame
 after the release (the gate is half open there and the material already moving) is a fitted offset. One rollout
-recorded at a fine spacing serves every candidate offset.
+recorded at a fine spacing serves every candidate offset. The channel is symmetric about its mid-plane: the half
+z < depth / 2 is simulated and mirrored, at half the cost of the whole.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from functools import cached_property
@@ -15,13 +17,15 @@ from functools import cached_property
 import numpy as np
 import torch
 
-from rheo.experiments.virheometry import CONTAINER_RIM, Setup, container_silhouette
+from rheo.experiments.virheometry import CONTAINER_RIM, Setup, StaticBox, container_silhouette
 from rheo.physics import Box, Floor, HerschelBulkley, Simulator, kernels
 from rheo.physics.simulator import Trajectory
 from rheo.vision.cameras import Camera
 
 WALL_CELLS = 2  # the least thickness of a wall, in grid cells
 GRAVITY = 9.81  # m/s^2, as in the recordings' setup (981 cm/s^2)
+# walls grown by this fraction of a cell: a node on a wall's face belongs to the wall, not to a rounding error
+FACE_MARGIN = 1e-3
 
 
 class DamBreakError(ValueError):
@@ -51,13 +55,15 @@ def runout(setup: Setup, rim: int = CONTAINER_RIM) -> float:
 @dataclass(frozen=True)
 class DamBreakScene:
     """The simulated dam break: a cube of ``domain_size`` from ``domain_origin`` on ``resolution`` cells per axis,
-    the floor and the setup's walls as colliders, ``particles_per_cell`` particles per cell and axis."""
+    the floor and the setup's walls as colliders, ``particles_per_cell`` particles per cell and axis; the half of
+    the material before ``mid_plane`` is simulated when one is given."""
 
     setup: Setup
     domain_size: float
     domain_origin: tuple[float, float, float]
     resolution: int
     particles_per_cell: int
+    mid_plane: float | None = None  # z of the plane of symmetry when the half before it is simulated
 
     @property
     def dx(self) -> float:
@@ -79,39 +85,70 @@ class DamBreakScene:
             # a wall thinner than the grid holds no node and lets the material through: thickened outwards
             thick = WALL_CELLS * self.dx
             behind, beyond = high <= cuboid_low + 1e-9, low >= cuboid_high - 1e-9
-            low = np.where(behind, np.minimum(low, high - thick), low)
-            high = np.where(beyond, np.maximum(high, low + thick), high)
+            low = np.where(behind, np.minimum(low, high - thick), low) - FACE_MARGIN * self.dx
+            high = np.where(beyond, np.maximum(high, low + thick), high) + FACE_MARGIN * self.dx
             boxes.append(Box(center=tuple(0.5 * (low + high)), half_extents=tuple(0.5 * (high - low)),
                              contact=wall.contact))
         return [Floor(height=0.0, contact=floor_contact), *boxes]
 
+    @property
+    def simulated_cuboid(self) -> tuple[np.ndarray, np.ndarray]:
+        """The part of the cuboid that is simulated: the half before the mid-plane, or all of it."""
+        low, high = self.setup.cuboid
+        return low, high if self.mid_plane is None else np.array([high[0], high[1], self.mid_plane])
+
     def simulator(self, material: HerschelBulkley) -> Simulator:
         return Simulator(material, resolution=self.resolution, domain_size=self.domain_size,
-                         domain_origin=self.domain_origin, colliders=self.colliders(), gravity=(0.0, -GRAVITY, 0.0))
+                         domain_origin=self.domain_origin, colliders=self.colliders(), gravity=(0.0, -GRAVITY, 0.0),
+                         symmetry_z=self.mid_plane)
 
     @cached_property
     def initial_positions(self) -> np.ndarray:
-        """Particles at the centres of a lattice of ``spacing`` filling the cuboid."""
-        low, high = self.setup.cuboid
+        """Particles at the centres of a lattice of ``spacing`` filling the simulated cuboid."""
+        low, high = self.simulated_cuboid
         counts = np.maximum(np.round((high - low) / self.spacing).astype(int), 1)
         axes = [low[a] + (np.arange(counts[a]) + 0.5) * (high[a] - low[a]) / counts[a] for a in range(3)]
         return np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
 
     @property
     def particle_volume(self) -> float:
-        low, high = self.setup.cuboid
+        low, high = self.simulated_cuboid
         return float(np.prod(high - low)) / len(self.initial_positions)
 
     def rollout(self, material: HerschelBulkley, duration: float, sample_dt: float) -> Trajectory:
-        """Positions every ``sample_dt`` seconds from the release to ``duration``."""
+        """The whole material's particles every ``sample_dt`` seconds from the release to ``duration`` (the
+        simulated half's mirror images appended)."""
         frames = int(np.ceil(duration / sample_dt - 1e-9))
         simulator = self.simulator(material)
         # the fastest a dam break flows is about the free fall from the material's height (the simulator's own
         # bound, a fall from the domain's height, takes smaller steps; an unstable step is retried at half)
         dt, _ = simulator.time_step(sample_dt, math.sqrt(2.0 * GRAVITY * self.setup.height))
         with torch.no_grad():
-            return simulator.rollout(torch.as_tensor(self.initial_positions, dtype=torch.float32), torch.zeros(3),
+            half = simulator.rollout(torch.as_tensor(self.initial_positions, dtype=torch.float32), torch.zeros(3),
                                      frames=frames, frame_dt=sample_dt, particle_volume=self.particle_volume, dt=dt)
+        if self.mid_plane is None:
+            return half
+        flip = torch.tensor([1.0, 1.0, -1.0], dtype=half.x.dtype)
+        matrix_flip = flip[:, None] * flip[None, :]
+        mirror_x = half.x * flip
+        mirror_x[..., 2] += 2.0 * self.mid_plane
+        return dataclasses.replace(half, x=torch.cat([half.x, mirror_x], dim=1),
+                                   v=torch.cat([half.v, half.v * flip], dim=1),
+                                   C=torch.cat([half.C, half.C * matrix_flip], dim=1),
+                                   F=torch.cat([half.F, half.F * matrix_flip], dim=1))
+
+
+def mid_plane(setup: Setup) -> float | None:
+    """z of the channel's mid-plane when the walls are symmetric about it, else None."""
+    middle = 0.5 * setup.depth
+
+    def mirrored(wall: StaticBox) -> np.ndarray:
+        return np.array([[*wall.low[:2], 2 * middle - wall.high[2]], [*wall.high[:2], 2 * middle - wall.low[2]]])
+
+    walls = [w for w in setup.walls if w.high[1] > 0.0]  # the floor slab is simulated as the plane y = 0
+    same = all(any(other.contact == wall.contact and np.allclose(mirrored(wall), [other.low, other.high], atol=1e-9)
+                   for other in walls) for wall in walls)
+    return middle if same else None
 
 
 def dam_break_scene(setup: Setup, cells_per_height: int = 8, cells_across: int = 7, particles_per_cell: int = 2,
@@ -119,17 +156,21 @@ def dam_break_scene(setup: Setup, cells_per_height: int = 8, cells_across: int =
     """The scene of ``setup`` on cells of at most H / ``cells_per_height`` and at most the channel's depth /
     ``cells_across``: a cube holding the channel and the material that leaves it, the ``runout`` past the gate and
     as far to either side (grown by ``margin``), above ``kernels.BOUND`` boundary cells on every face and one more
-    cell behind the back wall and under the floor.
+    cell behind the back wall and under the floor. When the walls are symmetric about the channel's mid-plane, the
+    half before it is simulated, and the cube needs to reach only a few cells past it.
 
     The channel's walls lie on node planes (a node on a wall's face belongs to the wall): the back wall at x = 0,
-    the floor at y = 0, the side walls at z = 0 and z = depth, a whole number of cells apart. Off the node planes,
-    the channel's width on the grid changes by up to two cells with the resolution."""
+    the floor at y = 0, the side walls at z = 0 and z = depth, an even number of cells apart (the mid-plane too).
+    Off the node planes, the channel's width on the grid changes by up to two cells with the resolution."""
+    cells = math.ceil(max(setup.depth * cells_per_height / setup.height, cells_across) - 1e-9)
+    dx = setup.depth / (cells + cells % 2)  # an even number: the mid-plane is a node plane too
     spread = (1.0 + margin) * max(runout(setup), 0.5 * setup.height)
+    middle = mid_plane(setup)
     low = np.array([0.0, -spread])
-    high = np.array([setup.width + spread, setup.depth + spread])
+    high = np.array([setup.width + spread, setup.depth + spread if middle is None
+                     else middle + kernels.MIRROR_NODES * dx])
     extent = max(*(high - low), (1.0 + margin) * setup.height)
-    dx = setup.depth / math.ceil(max(setup.depth * cells_per_height / setup.height, cells_across) - 1e-9)
     resolution = int(np.ceil(extent / dx)) + 2 * kernels.BOUND + 1
     origin = (-(kernels.BOUND + 1) * dx, -(kernels.BOUND + 1) * dx,
               -round((0.5 * resolution * dx - 0.5 * (low[1] + high[1])) / dx) * dx)
-    return DamBreakScene(setup, resolution * dx, origin, resolution, particles_per_cell)
+    return DamBreakScene(setup, resolution * dx, origin, resolution, particles_per_cell, middle)

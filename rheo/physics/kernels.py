@@ -42,6 +42,7 @@ N_BOUNDARY_PARAMS = 4
 MAX_COLLIDERS = 8
 
 BOUND = 3  # grid nodes next to each domain face that act as slip walls; particles must stay inside them
+MIRROR_NODES = 3  # node planes folded on either side of a plane of symmetry: more than a particle's stencil reaches
 
 # Below this relative gap two eigenvalues are treated as one and divided differences use a series.
 _SERIES_GAP = 1e-2
@@ -423,6 +424,27 @@ def build(scalar: type) -> SimpleNamespace:
         grid_v[i, j, k] = wp.cw_mul(v, keep)
 
     @wp.kernel
+    def mirror_fold(grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3), plane: int):
+        """Makes the grid that of a flow symmetric about the node plane z = ``plane`` from particles on one side:
+        node pairs at ``plane`` -/+ d each add the other's mass and z-reflected momentum (what the particles' mirror
+        images deposit); the plane's own nodes double."""
+        i, j, d = wp.tid()
+        a = plane + d
+        b = plane - d
+        flip = vec3(one, one, -one)
+        mv_a = grid_mv[i, j, a]
+        mv_b = grid_mv[i, j, b]
+        if d == 0:
+            grid_m[i, j, a] = scalar(2.0) * grid_m[i, j, a]
+            grid_mv[i, j, a] = mv_a + wp.cw_mul(flip, mv_a)
+        else:
+            m = grid_m[i, j, a] + grid_m[i, j, b]
+            grid_m[i, j, a] = m
+            grid_m[i, j, b] = m
+            grid_mv[i, j, a] = mv_a + wp.cw_mul(flip, mv_b)
+            grid_mv[i, j, b] = mv_b + wp.cw_mul(flip, mv_a)
+
+    @wp.kernel
     def g2p(x: wp.array(dtype=vec3), grid_v: wp.array3d(dtype=vec3), dt: scalar, inv_dx: scalar,
             x_out: wp.array(dtype=vec3), v_out: wp.array(dtype=vec3), C_out: wp.array(dtype=mat33),
             unstable: wp.array(dtype=int)):
@@ -446,7 +468,8 @@ def build(scalar: type) -> SimpleNamespace:
         C_out[p] = new_C
         x_out[p] = x[p] + dt * new_v
 
-    return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, p2g=p2g, grid_update=grid_update, g2p=g2p,
+    return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, p2g=p2g, mirror_fold=mirror_fold,
+                           grid_update=grid_update, g2p=g2p,
                            return_mapping=return_mapping, hb_excess=hb_excess_kernel)
 
 

@@ -68,12 +68,17 @@ class Simulator:
 
     ``gravity`` is a vector in m/s^2 (y is up). Particles must stay ``kernels.BOUND`` cells away from the domain faces,
     which act as slip walls. ``checkpoint_mb`` bounds the memory kept for the backward pass.
+
+    With ``symmetry_z``, a node plane z = ``symmetry_z``, the particles given are the half z < ``symmetry_z`` of a flow
+    symmetric about that plane (with its colliders): the grid gets their mirror images' share too, so the half
+    moves exactly as in the whole flow at half the cost. Such rollouts are not differentiated.
     """
 
     def __init__(self, material: Material, *, resolution: int = 32, domain_size: float = 1.0,
                  colliders: tuple[Collider, ...] | list[Collider] = (), gravity=(0.0, -9.8, 0.0),
                  dtype: torch.dtype = torch.float32, cfl: float = 0.4, max_halvings: int = 4,
-                 checkpoint_mb: float = 1024.0, domain_origin=(0.0, 0.0, 0.0)) -> None:
+                 checkpoint_mb: float = 1024.0, domain_origin=(0.0, 0.0, 0.0),
+                 symmetry_z: float | None = None) -> None:
         if not isinstance(material, Material):
             raise MaterialError(f"expected a Material, got {material!r}")
         if not (isinstance(resolution, int) and resolution >= 2 * kernels.BOUND + 2):
@@ -93,6 +98,7 @@ class Simulator:
             raise SimulationError(f"domain origin {domain_origin!r} must be three finite numbers")
         self.domain_origin = origin
         self.dx = self.domain_size / resolution
+        self.symmetry_node = None if symmetry_z is None else self._node_plane(symmetry_z)
         self.colliders = tuple(colliders)
         self.collider_arrays = pack(self.colliders, self.domain_origin)
         self.gravity = gravity
@@ -106,6 +112,16 @@ class Simulator:
         self._free_buffers: list[_Buffers] = []
 
     # ------------------------------------------------------------------ set-up helpers
+
+    def _node_plane(self, z: float) -> int:
+        """The index of the node plane at ``z``, with room for the mirror's fold on both sides."""
+        index = (z - self.domain_origin[2]) / self.dx
+        margin = kernels.BOUND + kernels.MIRROR_NODES
+        if not (math.isfinite(index) and abs(index - round(index)) < 1e-6
+                and margin <= round(index) <= self.resolution - 1 - margin):
+            raise SimulationError(f"plane of symmetry z = {z!r} m must be a node plane (cells of {self.dx:.4g} m from "
+                                  f"z = {self.domain_origin[2]:.4g} m) at least {margin} nodes inside the domain")
+        return round(index)
 
     def material_parameters(self) -> torch.Tensor:
         return self.material.parameters(self.dtype)
@@ -158,6 +174,12 @@ class Simulator:
                 f"{int(bad.sum())} particle(s) lie outside the simulation domain, e.g. particle {i} at "
                 f"{x0[i].tolist()}: positions must have {bounds} m (domain {self.domain_size:g} m from "
                 f"{list(self.domain_origin)}, {kernels.BOUND} boundary cells of {self.dx:.4g} m)")
+        if self.symmetry_node is not None:
+            plane = self.domain_origin[2] + self.symmetry_node * self.dx
+            beyond = int((x0[:, 2] > plane).sum())
+            if beyond:
+                raise SimulationError(f"{beyond} particle(s) lie beyond the plane of symmetry z = {plane:.4g} m: "
+                                      "give the half z <= the plane")
 
     # ------------------------------------------------------------------ rollout
 
@@ -291,6 +313,9 @@ class _Run:
             wp.launch(k.p2g, dim=len(x), inputs=[x, v, C, F, self.mat, self.material.model,
                                                  s(self.particle_volume), s(self.dt), s(inv_dx), eig_q, eig_l],
                       outputs=[F1, m, mv])
+            if sim.symmetry_node is not None:
+                wp.launch(k.mirror_fold, dim=(m.shape[0], m.shape[1], kernels.MIRROR_NODES + 1),
+                          inputs=[m, mv, sim.symmetry_node])
             wp.launch(k.grid_update, dim=m.shape, inputs=[m, mv, s(self.dt), s(step * self.dt), s(sim.dx),
                                                           k.vec3(*sim.gravity), self.shapes, self.laws, self.geom,
                                                           self.timing, self.bnd, s(self.min_mass)], outputs=[gv])
@@ -325,6 +350,8 @@ class _Run:
                 requires_grad: bool) -> tuple[torch.Tensor, ...]:
         sim = self.sim
         n = x0.shape[0]
+        if requires_grad and sim.symmetry_node is not None:
+            raise SimulationError("a rollout about a plane of symmetry cannot be differentiated")
         self.requires_grad = requires_grad
         self.mat = wp.array(mat.detach().cpu().numpy(), dtype=sim.scalar, requires_grad=requires_grad)
         self.bnd = wp.array(bnd.detach().cpu().numpy().reshape(-1, kernels.N_BOUNDARY_PARAMS), dtype=sim.scalar,

@@ -2,10 +2,12 @@
 and a rollout that holds a strong material in its cuboid and lets a weak one out through the open gate."""
 
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from rheo.experiments.dam_break import dam_break_scene, floor_footprint, runout
+from rheo.experiments.dam_break import FACE_MARGIN, dam_break_scene, floor_footprint, runout
 from rheo.physics import HerschelBulkley, kernels
 from tests.conftest import DEPTH, HEIGHT, WIDTH
 
@@ -24,26 +26,41 @@ def test_the_domain_holds_the_cuboid_and_the_footprint_inside_its_boundary_cells
     scene = dam_break_scene(setup, cells_per_height=4)
     lo = np.array(scene.domain_origin) + kernels.BOUND * scene.dx
     hi = np.array(scene.domain_origin) + scene.domain_size - kernels.BOUND * scene.dx
-    for point in ([0.0, 0.0, -0.01], [0.06, HEIGHT, 0.05], [WIDTH, HEIGHT, DEPTH]):
+    # the walls are symmetric about the channel's mid-plane: the half before it is simulated
+    assert scene.mid_plane == pytest.approx(DEPTH / 2)
+    for point in ([0.0, 0.0, -0.01], [0.06, HEIGHT, DEPTH / 2], [WIDTH, HEIGHT, DEPTH / 2]):
         assert np.all(lo <= point) and np.all(np.array(point) <= hi)
     positions = scene.initial_positions
-    assert np.all(positions.min(axis=0) > 0) and np.all(positions.max(axis=0) < [WIDTH, HEIGHT, DEPTH])
-    assert len(positions) * scene.particle_volume == pytest.approx(WIDTH * HEIGHT * DEPTH)
+    assert np.all(positions.min(axis=0) > 0) and np.all(positions.max(axis=0) < [WIDTH, HEIGHT, DEPTH / 2])
+    assert len(positions) * scene.particle_volume == pytest.approx(WIDTH * HEIGHT * DEPTH / 2)
     colliders = scene.colliders()
     assert [type(c).__name__ for c in colliders] == ["Floor", "Box", "Box", "Box"]
     # the 3 mm side walls are thickened outwards to two cells, so that grid nodes lie inside them
     for box in colliders[1:]:
         assert min(box.half_extents) >= scene.dx - 1e-12
-    assert colliders[3].center[2] - colliders[3].half_extents[2] == pytest.approx(DEPTH)
+    # grown by a thousandth of a cell: the node on the inner face is inside the wall whatever the rounding
+    inner_faces = (colliders[1].center[0] + colliders[1].half_extents[0],
+                   colliders[2].center[2] + colliders[2].half_extents[2],
+                   DEPTH - (colliders[3].center[2] - colliders[3].half_extents[2]))
+    assert inner_faces == pytest.approx((FACE_MARGIN * scene.dx,) * 3, rel=1e-6)
+
+
+def test_walls_not_symmetric_about_the_mid_plane_are_simulated_whole(channel):
+    setup = channel((0.0, 0.06, -0.01, 0.05))
+    far = setup.walls[3]
+    setup.walls[3] = dataclasses.replace(far, high=(far.high[0], far.high[1], far.high[2] + 0.002))
+    scene = dam_break_scene(setup, cells_per_height=4)
+    assert scene.mid_plane is None
+    assert len(scene.initial_positions) * scene.particle_volume == pytest.approx(WIDTH * HEIGHT * DEPTH)
 
 
 @pytest.mark.parametrize("cells_per_height, cells_across, expected_dx", [(4, 7, 0.005), (3, 10, 0.004), (5, 3, 0.004)])
-def test_the_walls_lie_on_node_planes_at_the_finer_of_the_two_resolutions(channel, cells_per_height, cells_across,
-                                                                           expected_dx):
+def test_the_walls_and_the_mid_plane_lie_on_node_planes_at_the_finer_resolution(channel, cells_per_height,
+                                                                                cells_across, expected_dx):
     scene = dam_break_scene(channel((0.0, 0.06, -0.01, 0.05)), cells_per_height, cells_across)
     # H / 4 = 5 mm; depth / 10 = 4 mm; H / 5 = 4 mm
     assert scene.dx == pytest.approx(expected_dx)
-    for axis, face in ((0, 0.0), (1, 0.0), (2, 0.0), (2, DEPTH)):
+    for axis, face in ((0, 0.0), (1, 0.0), (2, 0.0), (2, DEPTH / 2), (2, DEPTH)):
         cells = (face - scene.domain_origin[axis]) / scene.dx
         assert cells == pytest.approx(round(cells), abs=1e-9)
 
@@ -57,3 +74,9 @@ def test_a_weak_material_leaves_through_the_gate_and_a_strong_one_stays(channel,
     front = trajectory.x[-1, :, 0].max().item()
     assert (front > WIDTH + 0.01) == flows
     assert trajectory.x[-1, :, 0].min().item() > -1e-3  # the back wall holds
+    # the whole material: the simulated half and its mirror image
+    half = len(scene.initial_positions)
+    assert trajectory.x.shape[1] == 2 * half
+    mirror = trajectory.x[:, half:].clone()
+    mirror[..., 2] = DEPTH - mirror[..., 2]
+    assert (mirror - trajectory.x[:, :half]).abs().max().item() < 1e-6
