@@ -151,7 +151,7 @@ def mid_plane(setup: Setup) -> float | None:
     return middle if same else None
 
 
-def dam_break_scene(setup: Setup, cells_per_height: int = 8, cells_across: int = 7, particles_per_cell: int = 2,
+def dam_break_scene(setup: Setup, cells_per_height: int = 8, cells_across: int = 10, particles_per_cell: int = 2,
                     margin: float = 0.25) -> DamBreakScene:
     """The scene of ``setup`` on cells of at most H / ``cells_per_height`` and at most the channel's depth /
     ``cells_across``: a cube holding the channel and the material that leaves it, the ``runout`` past the gate and
