@@ -402,8 +402,13 @@ def build(scalar: type) -> SimpleNamespace:
     def grid_update(grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3), dt: scalar,
                     time: scalar, dx: scalar, gravity: vec3, shapes: wp.array(dtype=int),
                     laws: wp.array(dtype=int), geom: wp.array2d(dtype=scalar), timing: wp.array2d(dtype=scalar),
-                    bparams: wp.array2d(dtype=scalar), min_mass: scalar, grid_v: wp.array3d(dtype=vec3)):
+                    bparams: wp.array2d(dtype=scalar), min_mass: scalar, offset: wp.vec3i,
+                    grid_v: wp.array3d(dtype=vec3)):
+        # launched over the box of nodes the particles reach, from node ``offset``
         i, j, k = wp.tid()
+        i += offset[0]
+        j += offset[1]
+        k += offset[2]
         m = grid_m[i, j, k]
         if m <= min_mass:  # empty, or touched only by a weight's rounding error (whose adjoint 1/m^2 overflows)
             grid_v[i, j, k] = vec3()
@@ -422,6 +427,16 @@ def build(scalar: type) -> SimpleNamespace:
             if (lo[a] < BOUND and v[a] < zero) or (lo[a] > n - BOUND and v[a] > zero):
                 keep[a] = zero
         grid_v[i, j, k] = wp.cw_mul(v, keep)
+
+    @wp.kernel
+    def reached_nodes(x: wp.array(dtype=vec3), inv_dx: scalar, n: int, bounds: wp.array(dtype=int)):
+        """The box of grid nodes the particles' stencils reach: bounds[0:3] lowest, bounds[3:6] highest index (to be
+        set beforehand to the grid's size and -1)."""
+        p = wp.tid()
+        base, _fraction, _weights = stencil(x[p], inv_dx, n)
+        for a in range(3):
+            wp.atomic_min(bounds, a, base[a])
+            wp.atomic_max(bounds, 3 + a, base[a] + 2)
 
     @wp.kernel
     def mirror_fold(grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3), plane: int):
@@ -468,9 +483,9 @@ def build(scalar: type) -> SimpleNamespace:
         C_out[p] = new_C
         x_out[p] = x[p] + dt * new_v
 
-    return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, p2g=p2g, mirror_fold=mirror_fold,
-                           grid_update=grid_update, g2p=g2p,
-                           return_mapping=return_mapping, hb_excess=hb_excess_kernel)
+    return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, p2g=p2g, reached_nodes=reached_nodes,
+                           mirror_fold=mirror_fold, grid_update=grid_update, g2p=g2p, return_mapping=return_mapping,
+                           hb_excess=hb_excess_kernel)
 
 
 def scalar_type(dtype) -> type:

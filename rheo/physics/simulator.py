@@ -296,6 +296,8 @@ class _Run:
         self.geom = wp.array(np.asarray(ca.geometry, dtype=np.float64).reshape(-1, kernels.N_GEOM), dtype=s)
         self.timing = wp.array(np.asarray(ca.timing, dtype=np.float64).reshape(-1, 2), dtype=s)
         self.unstable = wp.zeros(1, dtype=int)
+        self.reached = wp.zeros(6, dtype=int)
+        self.unreached = wp.array([sim.resolution] * 3 + [-1] * 3, dtype=int)
         self.backward_done = False
 
     def _step(self, buf: _Buffers, i: int, grid: int, step: int, tape: wp.Tape | None) -> None:
@@ -307,6 +309,10 @@ class _Run:
         m.zero_()
         mv.zero_()
         inv_dx = 1.0 / sim.dx
+        wp.copy(self.reached, self.unreached)
+        wp.launch(k.reached_nodes, dim=len(x), inputs=[x, s(inv_dx), sim.resolution], outputs=[self.reached])
+        bounds = self.reached.numpy()
+        low, high = bounds[:3], bounds[3:]
         if self.material.model in (kernels.MODEL_HERSCHEL_BULKLEY, kernels.MODEL_PLASTICINE):
             wp.launch(k.eigen, dim=len(x), inputs=[F, C, s(self.dt)], outputs=[eig_q, eig_l])
         with tape if tape is not None else contextlib.nullcontext():
@@ -316,9 +322,11 @@ class _Run:
             if sim.symmetry_node is not None:
                 wp.launch(k.mirror_fold, dim=(m.shape[0], m.shape[1], kernels.MIRROR_NODES + 1),
                           inputs=[m, mv, sim.symmetry_node])
-            wp.launch(k.grid_update, dim=m.shape, inputs=[m, mv, s(self.dt), s(step * self.dt), s(sim.dx),
-                                                          k.vec3(*sim.gravity), self.shapes, self.laws, self.geom,
-                                                          self.timing, self.bnd, s(self.min_mass)], outputs=[gv])
+            # only the nodes the particles reach hold mass and are read back (the grid is mostly empty)
+            wp.launch(k.grid_update, dim=tuple(int(h - lo + 1) for lo, h in zip(low, high, strict=True)),
+                      inputs=[m, mv, s(self.dt), s(step * self.dt), s(sim.dx), k.vec3(*sim.gravity), self.shapes,
+                              self.laws, self.geom, self.timing, self.bnd, s(self.min_mass), wp.vec3i(*low)],
+                      outputs=[gv])
             wp.launch(k.g2p, dim=len(x), inputs=[x, gv, s(self.dt), s(inv_dx)],
                       outputs=[x1, v1, C1, self.unstable])
 
