@@ -30,7 +30,8 @@ low = np.log([settings[n][0] for n in NAMES])
 high = np.log([settings[n][1] for n in NAMES])
 output = Path(smk.output.params)
 evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
-                            inputs_key([settings, simulation], [*smk.input.setups, *smk.input.masks]))
+                            inputs_key([settings, simulation], [*smk.input.setups, *smk.input.masks]),
+                            one_objective=True)
 bar = tqdm(desc=f"{output.parent.parent.name} {output.parent.name}", unit="evaluation")
 
 

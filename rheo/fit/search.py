@@ -59,10 +59,12 @@ class SilhouetteTarget:
 
 class EvaluationLog:
     """Objective values stored by phase and point, in ``path`` under ``key`` (the fit's inputs and settings): a
-    stored point is not evaluated again, so a resumed search replays the stored values up to where it stopped."""
+    stored point is not evaluated again, so a resumed search replays the stored values up to where it stopped.
+    With ``one_objective`` every phase evaluates the same objective, and a point stored by one phase serves the
+    others (a search starting from a survey's point, a profile through the search's best)."""
 
-    def __init__(self, path: str | Path, key: str) -> None:
-        self.path, self.key = Path(path), key
+    def __init__(self, path: str | Path, key: str, one_objective: bool = False) -> None:
+        self.path, self.key, self.one_objective = Path(path), key, one_objective
         self.records: list[dict] = []
         self.earlier_seconds = 0.0  # the time the interrupted runs spent up to their last stored evaluation
         self._started = time.monotonic()
@@ -72,12 +74,13 @@ class EvaluationLog:
                 self.records = stored["records"]
                 self.earlier_seconds = stored.get("seconds", 0.0)
                 logger.info("replaying %d stored evaluations from %s", len(self.records), self.path)
-        self._index = {self._point_key(r["phase"], r["x"]): r for r in self.records}
+        self._index: dict[str, dict] = {}
+        for record in self.records:
+            self._index.setdefault(self._point_key(record["phase"], record["x"]), record)
         self._lock = threading.Lock()  # searches running side by side share the log
 
-    @staticmethod
-    def _point_key(phase: str, x) -> str:
-        return phase + ":" + ",".join(f"{v:.12g}" for v in x)
+    def _point_key(self, phase: str, x) -> str:
+        return ("" if self.one_objective else phase) + ":" + ",".join(f"{v:.12g}" for v in x)
 
     def evaluate(self, objective: Callable[[np.ndarray], float], x: np.ndarray, phase: str) -> float:
         return self.evaluate_many(lambda points: [objective(p) for p in points], [x], phase)[0]

@@ -174,6 +174,24 @@ def test_points_evaluated_together_are_stored_and_not_evaluated_again(tmp_path):
     assert batches == [3, 1]  # only the new point is evaluated after the restart
 
 
+@pytest.mark.parametrize("one_objective, batches_expected", [(False, [2, 2]), (True, [2, 1])])
+def test_a_point_stored_by_one_phase_serves_another_when_they_share_the_objective(tmp_path, one_objective,
+                                                                                  batches_expected):
+    batches = []
+
+    def objective(points):
+        batches.append(len(points))
+        return [float(np.sum(x**2)) for x in points]
+
+    log = EvaluationLog(tmp_path / "evaluations.json", "key", one_objective=one_objective)
+    log.evaluate_many(objective, [np.array([1.0, 2.0]), np.array([0.0, 1.0])], "survey")
+    assert log.evaluate_many(objective, [np.array([1.0, 2.0]), np.array([3.0, 0.0])], "start 1") == [5.0, 9.0]
+    assert batches == batches_expected
+    resumed = EvaluationLog(tmp_path / "evaluations.json", "key", one_objective=one_objective)
+    assert resumed.evaluate_many(objective, [np.array([3.0, 0.0])], "profile") == [9.0]
+    assert batches == batches_expected + ([] if one_objective else [1])
+
+
 def test_the_profile_evaluates_exactly_its_listed_points():
     centre = np.log([3.0, 2.0, 0.5])
     listed = {tuple(p) for p in profile_points(centre, [0, 2], 0.2)}
