@@ -131,3 +131,7 @@ def test_half_flow_about_a_plane_of_symmetry_moves_as_in_the_whole_flow():
     with pytest.raises(SimulationError, match="beyond the plane of symmetry"):
         Simulator(material, resolution=16, symmetry_z=0.5).rollout(x0, torch.zeros(3), frames=1, frame_dt=0.01,
                                                                    particle_volume=vol)
+    with pytest.raises(SimulationError, match="cannot be differentiated"):
+        Simulator(material, resolution=16, symmetry_z=0.5).rollout(x0[x0[:, 2] < 0.5].float().requires_grad_(),
+                                                                   torch.zeros(3), frames=1, frame_dt=0.01,
+                                                                   particle_volume=vol)
