@@ -76,6 +76,7 @@ if spread.ridge:
                 spread.count, ranges, " (one setup only)" if len(setups) == 1 else "")
 else:
     log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
+intervals = spread.widen(intervals, NAMES)
 rates = np.concatenate([d.shear_rates for d in details.values()])
 band = np.percentile(rates, [5, 95]).tolist() if len(rates) else None
 params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined}

@@ -6,7 +6,7 @@ own error, measured on virtual experiments where the truth is known) cannot be t
 parameter is the range along it where the loss stays within that tolerance: from a parabola fitted through the
 loss at -2, -1, 0, 1, 2 steps, which smooths the roughness pixel edges give the loss (a local Hessian would be
 meaningless there). The other parameters stay at the optimum (a conditional profile: correlations are not
-included).
+included); ``Tolerated.widen`` grows the intervals to the evaluated materials within the tolerance, which do see them.
 """
 
 from __future__ import annotations
@@ -145,6 +145,13 @@ class Tolerated:
     def ridge(self) -> bool:
         """Whether the materials spread along a ridge: some parameter over at least DETERMINED_SPAN."""
         return self.span >= DETERMINED_SPAN
+
+    def widen(self, intervals: dict[str, Interval], names: Sequence[str]) -> dict[str, Interval]:
+        """Each interval (of the parameters ``names``, in order) grown to hold these materials' range along its
+        parameter: a conditional profile misses where the parameters trade against each other."""
+        return {name: Interval(intervals[name].value, min(intervals[name].low, float(np.exp(low))),
+                               max(intervals[name].high, float(np.exp(high))))
+                for name, (low, high) in zip(names, self.ranges, strict=True)}
 
 
 def tolerated(points: np.ndarray, losses: np.ndarray, tolerance: float) -> Tolerated:

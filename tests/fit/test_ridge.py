@@ -4,7 +4,7 @@ against each other, against the analytic region of a quadratic loss."""
 import numpy as np
 import pytest
 
-from rheo.fit.uncertainty import tolerated
+from rheo.fit.uncertainty import Interval, tolerated
 
 MINIMUM = np.array([1.0, 0.5, -0.7])
 RIDGE = np.array([1.0, -1.0, 0.0]) / np.sqrt(2.0)  # log tau_y up, log K down: the flat direction
@@ -41,3 +41,22 @@ def test_a_material_evaluated_twice_counts_once():
     points = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.1, 0.0, 0.0], [3.0, 0.0, 0.0]])
     found = tolerated(points, np.array([1.0, 1.0, 1.05, 2.0]), TOLERANCE)
     assert found.count == 2 and found.ranges[0].tolist() == [0.0, 0.1]
+
+
+def test_intervals_grow_to_the_materials_within_the_tolerance_along_a_ridge():
+    points = MINIMUM + np.random.default_rng(3).uniform(-3.0, 3.0, (20000, 3))
+    points = np.vstack([MINIMUM, points])
+    found = tolerated(points, loss(points, 0.02), TOLERANCE)
+    # the conditional profile along log tau_y alone: 0.5 (0.02 + 8) / 2 t^2 <= tolerance * floor
+    half = np.sqrt(2.0 * TOLERANCE * FLOOR / (0.5 * 8.02))
+    names = ("tau_y", "K", "n")
+    conditional = {name: Interval(float(np.exp(m)), float(np.exp(m - half)), float(np.exp(m + half)))
+                   for name, m in zip(names, MINIMUM, strict=True)}
+    widened = found.widen(conditional, names)
+    for k, name in enumerate(names):
+        assert widened[name].value == conditional[name].value
+        assert widened[name].low == pytest.approx(min(conditional[name].low, np.exp(found.ranges[k, 0])))
+        assert widened[name].high == pytest.approx(max(conditional[name].high, np.exp(found.ranges[k, 1])))
+    # along the ridge tau_y and K reach far beyond their conditional intervals; n does not trade with them
+    assert widened["tau_y"].high / widened["tau_y"].low > 4 * conditional["tau_y"].high / conditional["tau_y"].low
+    assert not widened["tau_y"].determined and conditional["tau_y"].determined
