@@ -6,7 +6,7 @@ import json
 
 def test_a_setup_is_imported_and_fitted(workflow):
     (workflow.root / "quick.yaml").write_text(
-        "virheometry:\n  simulation: {cells_per_height: 4, max_offset: 0.05}\n"
+        "virheometry:\n  simulation: {cells_per_height: 4, cells_across: 4, max_offset: 0.05}\n"
         "  fit: {samples: 2, evaluations: 2, starts: 1}\n")
     run = workflow.run("results/virheometry/Carbonara/fit_setup2/params.json", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
