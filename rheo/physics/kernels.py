@@ -1,11 +1,13 @@
 """Warp kernels of one MLS-MPM step (APIC transfers, quadratic B-splines), generic over float32/float64.
 
-One step is ``eigen`` (eigen-decomposition of the trial strain, for the Hencky models), then three differentiated
-launches: ``p2g`` (constitutive update and particle-to-grid transfer), ``grid_update`` (gravity and boundaries) and
-``g2p`` (grid-to-particle transfer and advection). Every input a loss may depend on (particle state, material
-parameters, boundary parameters) is a Warp array, so Warp's generated adjoints give the gradients. The plastic return
-on Hencky strain has a hand-written adjoint (divided differences of the eigenvalues) that stays finite at repeated
-eigenvalues (undeformed material) and needs no second decomposition in the backward pass.
+One step is ``eigen`` (eigen-decomposition of the trial strain, for the Hencky models) and ``reached_nodes`` (the box
+of nodes the particles reach), then three differentiated launches: ``p2g`` (constitutive update and particle-to-grid
+transfer), ``grid_update`` (gravity and boundaries, over that box) and ``g2p`` (grid-to-particle transfer and
+advection); about a plane of symmetry, ``mirror_fold`` adds the mirror images' share to the grid after ``p2g``. Every
+input a loss may depend on (particle state, material parameters, boundary parameters) is a Warp array, so Warp's
+generated adjoints give the gradients. The plastic return on Hencky strain has a hand-written adjoint (divided
+differences of the eigenvalues) that stays finite at repeated eigenvalues (undeformed material) and needs no second
+decomposition in the backward pass.
 
 Stress conventions: Kirchhoff stress ``tau``; deviatoric norm ``|s|``; equivalent shear stress ``|s| / sqrt(2)``,
 which is what ``tau_y`` and the Herschel-Bulkley law refer to (``tau = tau_y + K gamma_dot^n`` in simple shear).
