@@ -9,7 +9,6 @@ z < depth / 2 is simulated and mirrored, at half the cost of the whole.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from functools import cached_property
@@ -78,9 +77,7 @@ class DamBreakScene:
         floor_contact = next((w.contact for w in self.setup.walls if w.high[1] <= 0.0), "sticky")
         cuboid_low, cuboid_high = self.setup.cuboid
         boxes = []
-        for wall in self.setup.walls:
-            if wall.high[1] <= 0.0:
-                continue
+        for wall in standing_walls(self.setup):
             low, high = np.array(wall.low), np.array(wall.high)
             # a wall thinner than the grid holds no node and lets the material through: thickened outwards
             thick = WALL_CELLS * self.dx
@@ -126,16 +123,12 @@ class DamBreakScene:
         with torch.no_grad():
             half = simulator.rollout(torch.as_tensor(self.initial_positions, dtype=torch.float32), torch.zeros(3),
                                      frames=frames, frame_dt=sample_dt, particle_volume=self.particle_volume, dt=dt)
-        if self.mid_plane is None:
-            return half
-        flip = torch.tensor([1.0, 1.0, -1.0], dtype=half.x.dtype)
-        matrix_flip = flip[:, None] * flip[None, :]
-        mirror_x = half.x * flip
-        mirror_x[..., 2] += 2.0 * self.mid_plane
-        return dataclasses.replace(half, x=torch.cat([half.x, mirror_x], dim=1),
-                                   v=torch.cat([half.v, half.v * flip], dim=1),
-                                   C=torch.cat([half.C, half.C * matrix_flip], dim=1),
-                                   F=torch.cat([half.F, half.F * matrix_flip], dim=1))
+        return half if self.mid_plane is None else half.with_mirror_images(self.mid_plane)
+
+
+def standing_walls(setup: Setup) -> list[StaticBox]:
+    """The walls above the floor (the floor slab is simulated as the plane y = 0)."""
+    return [w for w in setup.walls if w.high[1] > 0.0]
 
 
 def mid_plane(setup: Setup) -> float | None:
@@ -145,7 +138,7 @@ def mid_plane(setup: Setup) -> float | None:
     def mirrored(wall: StaticBox) -> np.ndarray:
         return np.array([[*wall.low[:2], 2 * middle - wall.high[2]], [*wall.high[:2], 2 * middle - wall.low[2]]])
 
-    walls = [w for w in setup.walls if w.high[1] > 0.0]  # the floor slab is simulated as the plane y = 0
+    walls = standing_walls(setup)
     same = all(any(other.contact == wall.contact and np.allclose(mirrored(wall), [other.low, other.high], atol=1e-9)
                    for other in walls) for wall in walls)
     return middle if same else None

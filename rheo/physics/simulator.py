@@ -62,6 +62,18 @@ class Trajectory:
     dt: float
     substeps: int
 
+    def with_mirror_images(self, z: float) -> Trajectory:
+        """The particles and their mirror images in the plane z = ``z`` (appended): the whole of a flow simulated
+        as its half about a plane of symmetry (``Simulator(symmetry_z=z)``)."""
+        flip = torch.tensor([1.0, 1.0, -1.0], dtype=self.x.dtype)
+        matrix_flip = flip[:, None] * flip[None, :]
+        mirror_x = self.x * flip
+        mirror_x[..., 2] += 2.0 * z
+        return dataclasses.replace(self, x=torch.cat([self.x, mirror_x], dim=1),
+                                   v=torch.cat([self.v, self.v * flip], dim=1),
+                                   C=torch.cat([self.C, self.C * matrix_flip], dim=1),
+                                   F=torch.cat([self.F, self.F * matrix_flip], dim=1))
+
 
 class Simulator:
     """A 3D MLS-MPM simulator on the cube ``domain_origin`` + [0, domain_size]^3 with ``resolution`` cells per axis.
