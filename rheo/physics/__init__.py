@@ -10,10 +10,11 @@ from rheo.physics.materials import (
     Plasticine,
     make_material,
 )
+from rheo.physics.optional import OptionalPhysics
 from rheo.physics.simulator import SimulationError, SimulationUnstable, Simulator, Trajectory
 
 __all__ = [
     "Box", "Collider", "Cup", "Floor", "HerschelBulkley", "Material", "MaterialError", "NeoHookean",
-    "NewtonianFluid", "Plasticine", "SimulationError", "SimulationUnstable", "Simulator", "Trajectory",
+    "NewtonianFluid", "OptionalPhysics", "Plasticine", "SimulationError", "SimulationUnstable", "Simulator", "Trajectory",
     "dam_break_gate", "lifted_cup", "make_material",
 ]

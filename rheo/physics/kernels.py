@@ -232,8 +232,19 @@ def build(scalar: type) -> SimpleNamespace:
         wp.adjoint[n] += n_bar
 
     @wp.func
-    def constitutive(F: mat33, C: mat33, mat: wp.array(dtype=scalar), model: int, dt: scalar, Q: mat33, l: vec3):
-        """Trial deformation, plastic return and Kirchhoff stress. Returns (F_new, tau)."""
+    def yield_factor(structure: wp.array(dtype=scalar), p: int, thixotropy: scalar) -> scalar:
+        """exp(-thixotropy gamma_p): how much of the yield stress a particle's structure keeps after the plastic
+        shear strain gamma_p it has accumulated (1 when the material is not thixotropic)."""
+        factor = one
+        if thixotropy > zero:
+            factor = wp.exp(-thixotropy * structure[p])
+        return factor
+
+    @wp.func
+    def constitutive(F: mat33, C: mat33, mat: wp.array(dtype=scalar), model: int, dt: scalar, Q: mat33, l: vec3,
+                     tau_y_factor: scalar):
+        """Trial deformation, plastic return and Kirchhoff stress, the yield stress scaled by ``tau_y_factor`` (1
+        but for a thixotropic material's broken-down structure). Returns (F_new, tau)."""
         I = wp.identity(3, dtype=scalar)
         Ft = (I + dt * C) * F
         mu = mat[P_MU]
@@ -253,7 +264,8 @@ def build(scalar: type) -> SimpleNamespace:
             tau = mu * (Ft * wp.transpose(Ft) - I) + lam * wp.log(J) * I
         else:
             # Hencky strain; von Mises yield on the equivalent shear stress |s| / sqrt(2).
-            PT = hencky_return(Ft * wp.transpose(Ft), Q, l, mu, lam, mat[P_TAU_Y], mat[P_K], mat[P_N], dt, model)
+            PT = hencky_return(Ft * wp.transpose(Ft), Q, l, mu, lam, mat[P_TAU_Y] * tau_y_factor, mat[P_K], mat[P_N],
+                               dt, model)
             P = mat33(PT[0, 0], PT[0, 1], PT[0, 2], PT[1, 0], PT[1, 1], PT[1, 2], PT[2, 0], PT[2, 1], PT[2, 2])
             tau = mat33(PT[3, 0], PT[3, 1], PT[3, 2], PT[4, 0], PT[4, 1], PT[4, 2], PT[5, 0], PT[5, 1], PT[5, 2])
             F_new = P * Ft
@@ -261,12 +273,13 @@ def build(scalar: type) -> SimpleNamespace:
 
     @wp.kernel
     def return_mapping(F: wp.array(dtype=mat33), C: wp.array(dtype=mat33), mat: wp.array(dtype=scalar),
-                       model: int, dt: scalar, F_out: wp.array(dtype=mat33), tau_out: wp.array(dtype=mat33)):
+                       model: int, dt: scalar, structure: wp.array(dtype=scalar), thixotropy: scalar,
+                       F_out: wp.array(dtype=mat33), tau_out: wp.array(dtype=mat33)):
         """The constitutive update alone, for tests and diagnostics."""
         p = wp.tid()
         Ft = (wp.identity(3, dtype=scalar) + dt * C[p]) * F[p]
         Q, l = eigen(Ft * wp.transpose(Ft))
-        F_new, tau = constitutive(F[p], C[p], mat, model, dt, Q, l)
+        F_new, tau = constitutive(F[p], C[p], mat, model, dt, Q, l, yield_factor(structure, p, thixotropy))
         F_out[p] = F_new
         tau_out[p] = tau
 
@@ -279,6 +292,21 @@ def build(scalar: type) -> SimpleNamespace:
         Q, l = eigen(Ft * wp.transpose(Ft))
         q_out[p] = Q
         l_out[p] = l
+
+    @wp.kernel
+    def structure_update(F: wp.array(dtype=mat33), C: wp.array(dtype=mat33), eig_l: wp.array(dtype=vec3),
+                         mat: wp.array(dtype=scalar), model: int, dt: scalar, thixotropy: scalar,
+                         structure: wp.array(dtype=scalar), structure_out: wp.array(dtype=scalar)):
+        """A thixotropic particle's accumulated plastic shear strain: the step's return mapping takes the trial
+        deviatoric Hencky strain e to alpha e, a plastic shear strain sqrt(2) (1 - alpha) |e| (gamma in simple
+        shear)."""
+        p = wp.tid()
+        l = eig_l[p]
+        eps = half * vec3(wp.log(l[0]), wp.log(l[1]), wp.log(l[2]))
+        e = eps - vec3(third * (eps[0] + eps[1] + eps[2]))
+        alpha = yield_scale(e, mat[P_MU], mat[P_TAU_Y] * yield_factor(structure, p, thixotropy), mat[P_K],
+                            mat[P_N], dt, model)
+        structure_out[p] = structure[p] + sqrt2 * (one - alpha) * wp.sqrt(wp.dot(e, e))
 
     @wp.kernel
     def hb_excess_kernel(trial: wp.array(dtype=scalar), relax: scalar, K: scalar, n: scalar,
@@ -309,11 +337,12 @@ def build(scalar: type) -> SimpleNamespace:
     @wp.kernel
     def p2g(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
             F: wp.array(dtype=mat33), mat: wp.array(dtype=scalar), model: int, p_vol: scalar, dt: scalar,
-            inv_dx: scalar, eig_q: wp.array(dtype=mat33), eig_l: wp.array(dtype=vec3), F_out: wp.array(dtype=mat33),
+            inv_dx: scalar, eig_q: wp.array(dtype=mat33), eig_l: wp.array(dtype=vec3),
+            structure: wp.array(dtype=scalar), thixotropy: scalar, F_out: wp.array(dtype=mat33),
             grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3)):
         p = wp.tid()
         Cp = C[p]
-        F_new, tau = constitutive(F[p], Cp, mat, model, dt, eig_q[p], eig_l[p])
+        F_new, tau = constitutive(F[p], Cp, mat, model, dt, eig_q[p], eig_l[p], yield_factor(structure, p, thixotropy))
         F_out[p] = F_new
         p_mass = mat[P_RHO] * p_vol
         affine = (-dt * p_vol * scalar(4.0) * inv_dx * inv_dx) * tau + p_mass * Cp
@@ -383,10 +412,20 @@ def build(scalar: type) -> SimpleNamespace:
         return wp.max(one + friction * vn / vt_norm, zero) * vt + v_col
 
     @wp.func
+    def adhere(v: vec3, v_col: vec3, cut: scalar) -> vec3:
+        """The velocity relative to a wall slowed by ``cut`` (to rest at most): a traction that holds the material
+        against sliding and separating alike, whatever the pressure."""
+        rel = v - v_col
+        speed = wp.sqrt(wp.dot(rel, rel) + tiny)
+        return v_col + wp.max(one - cut / speed, zero) * rel
+
+    @wp.func
     def collide(v: vec3, node: vec3, time: scalar, dx: scalar, c: int, shapes: wp.array(dtype=int),
                 laws: wp.array(dtype=int), geom: wp.array2d(dtype=scalar), timing: wp.array2d(dtype=scalar),
-                bparams: wp.array2d(dtype=scalar)) -> vec3:
-        # Collider c moves with velocity bparams[c, 1:4] between timing[c, 0] and timing[c, 1].
+                bparams: wp.array2d(dtype=scalar), adhesion_cut: scalar) -> vec3:
+        # Collider c moves with velocity bparams[c, 1:4] between timing[c, 0] and timing[c, 1]; a non-sticky one
+        # slows the material within a cell of its face by ``adhesion_cut`` (m/s) when the walls adhere: an adhesion
+        # A (Pa) on a layer of a cell's thickness, A dt / (rho dx).
         vel = vec3(bparams[c, B_VX], bparams[c, B_VY], bparams[c, B_VZ])
         t0 = timing[c, 0]
         t1 = timing[c, 1]
@@ -395,17 +434,21 @@ def build(scalar: type) -> SimpleNamespace:
             v_col = vel
         local = node - (wp.clamp(time, t0, t1) - t0) * vel
         out = v
-        if shape_sdf(shapes[c], local, geom, c) <= zero:
+        sdf = shape_sdf(shapes[c], local, geom, c)
+        if sdf <= zero:
             nrm = shape_normal(shapes[c], local, geom, c, half * dx)
             out = contact(v, v_col, nrm, laws[c], bparams[c, B_FRICTION])
+        # adhesion on the nodes within a cell of the wall's face
+        if adhesion_cut > zero and laws[c] != CONTACT_STICKY and wp.abs(sdf) < dx:
+            out = adhere(out, v_col, adhesion_cut)
         return out
 
     @wp.kernel
     def grid_update(grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3), dt: scalar,
                     time: scalar, dx: scalar, gravity: vec3, shapes: wp.array(dtype=int),
                     laws: wp.array(dtype=int), geom: wp.array2d(dtype=scalar), timing: wp.array2d(dtype=scalar),
-                    bparams: wp.array2d(dtype=scalar), min_mass: scalar, offset: wp.vec3i,
-                    grid_v: wp.array3d(dtype=vec3)):
+                    bparams: wp.array2d(dtype=scalar), min_mass: scalar, offset: wp.vec3i, adhesion_cut: scalar,
+                    air_drag: scalar, grid_v: wp.array3d(dtype=vec3)):
         # launched over the box of nodes the particles reach, from node ``offset``
         i, j, k = wp.tid()
         i += offset[0]
@@ -416,11 +459,13 @@ def build(scalar: type) -> SimpleNamespace:
             grid_v[i, j, k] = vec3()
             return
         v = grid_mv[i, j, k] / m + dt * gravity
+        if air_drag > zero:  # quadratic drag, implicit: stable at any step
+            v = v / (one + dt * air_drag * wp.length(v))
         node = vec3(scalar(i), scalar(j), scalar(k)) * dx
         count = shapes.shape[0]
         for c in range(MAX_COLLIDERS):  # unrolled: Warp differentiates static loops only
             if c < count:
-                v = collide(v, node, time, dx, c, shapes, laws, geom, timing, bparams)
+                v = collide(v, node, time, dx, c, shapes, laws, geom, timing, bparams, adhesion_cut)
         # Domain faces are slip walls.
         n = grid_m.shape[0]
         lo = wp.vec3i(i, j, k)
@@ -485,7 +530,7 @@ def build(scalar: type) -> SimpleNamespace:
         C_out[p] = new_C
         x_out[p] = x[p] + dt * new_v
 
-    return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, p2g=p2g, reached_nodes=reached_nodes,
+    return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, structure_update=structure_update, p2g=p2g, reached_nodes=reached_nodes,
                            mirror_fold=mirror_fold, grid_update=grid_update, g2p=g2p, return_mapping=return_mapping,
                            hb_excess=hb_excess_kernel)
 

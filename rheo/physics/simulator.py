@@ -25,6 +25,7 @@ from tqdm.auto import tqdm
 from rheo.physics import kernels
 from rheo.physics.boundaries import Collider, pack
 from rheo.physics.materials import Material, MaterialError
+from rheo.physics.optional import OptionalPhysics
 
 logger = logging.getLogger(__name__)
 
@@ -84,13 +85,16 @@ class Simulator:
     With ``symmetry_z``, a node plane z = ``symmetry_z``, the particles given are the half z < ``symmetry_z`` of a flow
     symmetric about that plane (with its colliders): the grid gets their mirror images' share too, so the half
     moves exactly as in the whole flow at half the cost. Such rollouts are not differentiated.
+
+    ``physics`` switches on effects beyond the base model (``OptionalPhysics``); a thixotropic rollout is not
+    differentiated.
     """
 
     def __init__(self, material: Material, *, resolution: int = 32, domain_size: float = 1.0,
                  colliders: tuple[Collider, ...] | list[Collider] = (), gravity=(0.0, -9.8, 0.0),
                  dtype: torch.dtype = torch.float32, cfl: float = 0.4, max_halvings: int = 4,
                  checkpoint_mb: float = 1024.0, domain_origin=(0.0, 0.0, 0.0),
-                 symmetry_z: float | None = None) -> None:
+                 symmetry_z: float | None = None, physics: OptionalPhysics = OptionalPhysics()) -> None:
         if not isinstance(material, Material):
             raise MaterialError(f"expected a Material, got {material!r}")
         if not (isinstance(resolution, int) and resolution >= 2 * kernels.BOUND + 2):
@@ -114,6 +118,9 @@ class Simulator:
         self.colliders = tuple(colliders)
         self.collider_arrays = pack(self.colliders, self.domain_origin)
         self.gravity = gravity
+        if not isinstance(physics, OptionalPhysics):
+            raise SimulationError(f"physics must be an OptionalPhysics, got {physics!r}")
+        self.physics = physics
         self.dtype = dtype
         self.scalar = kernels.scalar_type(dtype)
         self.cfl = cfl
@@ -274,6 +281,8 @@ class _Buffers:
         self.v = alloc(states, n, k.vec3)
         self.C = alloc(states, n, k.mat33)
         self.F = alloc(states, n, k.mat33)
+        # accumulated plastic shear strain of a thixotropic material (not differentiated)
+        self.structure = [wp.zeros(n, dtype=s) for _ in range(states)]
         # eigen-decompositions of the trial strain, inputs of the plastic return (constants for the tape)
         self.eig_q = [wp.zeros(n, dtype=k.mat33) for _ in range(grids)]
         self.eig_l = [wp.zeros(n, dtype=k.vec3) for _ in range(grids)]
@@ -311,6 +320,8 @@ class _Run:
         self.reached = wp.zeros(6, dtype=int)
         self.unreached = wp.array([sim.resolution] * 3 + [-1] * 3, dtype=int)
         self.backward_done = False
+        # walls' adhesion (Pa) on a layer a cell thick: its velocity change per step
+        self.adhesion_cut = sim.physics.wall_adhesion * dt / (material.density * sim.dx)
 
     def _step(self, buf: _Buffers, i: int, grid: int, step: int, tape: wp.Tape | None) -> None:
         k, sim, s = self.sim.kernels, self.sim, self.sim.scalar
@@ -318,6 +329,8 @@ class _Run:
         x1, v1, C1, F1 = buf.state(i + 1)
         m, mv, gv = buf.m[grid], buf.mv[grid], buf.gv[grid]
         eig_q, eig_l = buf.eig_q[grid], buf.eig_l[grid]
+        structure, structure_next = buf.structure[i % len(buf.x)], buf.structure[(i + 1) % len(buf.x)]
+        physics = sim.physics
         m.zero_()
         mv.zero_()
         inv_dx = 1.0 / sim.dx
@@ -327,9 +340,14 @@ class _Run:
         low, high = bounds[:3], bounds[3:]
         if self.material.model in (kernels.MODEL_HERSCHEL_BULKLEY, kernels.MODEL_PLASTICINE):
             wp.launch(k.eigen, dim=len(x), inputs=[F, C, s(self.dt)], outputs=[eig_q, eig_l])
+            if physics.thixotropy > 0.0:
+                wp.launch(k.structure_update, dim=len(x), inputs=[F, C, eig_l, self.mat, self.material.model,
+                                                                  s(self.dt), s(physics.thixotropy), structure],
+                          outputs=[structure_next])
         with tape if tape is not None else contextlib.nullcontext():
             wp.launch(k.p2g, dim=len(x), inputs=[x, v, C, F, self.mat, self.material.model,
-                                                 s(self.particle_volume), s(self.dt), s(inv_dx), eig_q, eig_l],
+                                                 s(self.particle_volume), s(self.dt), s(inv_dx), eig_q, eig_l,
+                                                 structure, s(physics.thixotropy)],
                       outputs=[F1, m, mv])
             if sim.symmetry_node is not None:
                 wp.launch(k.mirror_fold, dim=(m.shape[0], m.shape[1], kernels.MIRROR_NODES + 1),
@@ -337,7 +355,8 @@ class _Run:
             # only the nodes the particles reach hold mass and are read back (the grid is mostly empty)
             wp.launch(k.grid_update, dim=tuple(int(h - lo + 1) for lo, h in zip(low, high, strict=True)),
                       inputs=[m, mv, s(self.dt), s(step * self.dt), s(sim.dx), k.vec3(*sim.gravity), self.shapes,
-                              self.laws, self.geom, self.timing, self.bnd, s(self.min_mass), wp.vec3i(*low)],
+                              self.laws, self.geom, self.timing, self.bnd, s(self.min_mass), wp.vec3i(*low),
+                              s(self.adhesion_cut), s(physics.air_drag)],
                       outputs=[gv])
             wp.launch(k.g2p, dim=len(x), inputs=[x, gv, s(self.dt), s(inv_dx)],
                       outputs=[x1, v1, C1, self.unstable])
@@ -372,6 +391,8 @@ class _Run:
         n = x0.shape[0]
         if requires_grad and sim.symmetry_node is not None:
             raise SimulationError("a rollout about a plane of symmetry cannot be differentiated")
+        if requires_grad and sim.physics.thixotropy > 0.0:
+            raise SimulationError("a thixotropic rollout cannot be differentiated")
         self.requires_grad = requires_grad
         self.mat = wp.array(mat.detach().cpu().numpy(), dtype=sim.scalar, requires_grad=requires_grad)
         self.bnd = wp.array(bnd.detach().cpu().numpy().reshape(-1, kernels.N_BOUNDARY_PARAMS), dtype=sim.scalar,
@@ -386,6 +407,7 @@ class _Run:
             out[0].copy_(t)
         self.snapshots: dict[int, tuple[torch.Tensor, ...]] = {}
         self._load(self.buf, state0)
+        self.buf.structure[0].zero_()
         bar = tqdm(total=self.frames, desc="simulate", unit="frame", leave=False) if self.progress else None
         try:
             for start in range(0, self.steps, self.chunk):

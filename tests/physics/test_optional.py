@@ -1,0 +1,111 @@
+"""Optional physics against closed forms: quadratic air drag, wall adhesion's hold, thixotropic breakdown; each
+off at its null value."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+import warp as wp
+
+from rheo.geometry.sampling import box
+from rheo.physics import Box, Floor, HerschelBulkley, NeoHookean, OptionalPhysics, Simulator
+from rheo.physics import kernels as kn
+from rheo.physics.simulator import SimulationError
+
+
+def _fall(physics: OptionalPhysics, g: float = 2.0, duration: float = 0.6) -> tuple[torch.Tensor, torch.Tensor]:
+    """Centroid drop of a free-falling elastic block, and the frame times."""
+    sim = Simulator(NeoHookean(mu=1.0e3, lam=1.0e3), resolution=16, gravity=(0.0, -g, 0.0), dtype=torch.float64,
+                    physics=physics)
+    x0, vol = box((0.4, 0.7, 0.4), (0.6, 0.8, 0.6), sim.dx / 2)
+    tr = sim.rollout(x0, torch.zeros(3), frames=6, frame_dt=duration / 6, particle_volume=vol, dt=5e-4)
+    return x0[:, 1].mean() - tr.x[:, :, 1].mean(dim=1), tr.times
+
+
+def test_air_drag_fall_follows_the_quadratic_drag_law():
+    """dv/dt = g - c v^2: drop = (v_t^2 / g) ln cosh(g t / v_t), v_t = sqrt(g / c)."""
+    g, c = 2.0, 2.0
+    drop, times = _fall(OptionalPhysics(air_drag=c), g)
+    terminal = math.sqrt(g / c)
+    expected = terminal**2 / g * torch.log(torch.cosh(g * times / terminal))
+    rel = (drop[1:] - expected[1:]).abs() / expected[1:]
+    assert rel.max() < 5e-3, rel
+    free, _ = _fall(OptionalPhysics(), g)
+    assert float(free[-1] / drop[-1]) > 1.15  # the drag did slow the fall
+
+
+def _hanging_drop(adhesion: float, contact: str = "slip") -> float:
+    """How far (m) a 0.1 m thick elastic block starting against a ceiling's underside has fallen after 0.3 s."""
+    sim = Simulator(NeoHookean(mu=1.0e5, lam=1.0e5), resolution=16, colliders=[
+        Box(center=(0.5, 0.9, 0.5), half_extents=(0.3, 0.1, 0.3), contact=contact)], dtype=torch.float64,
+        physics=OptionalPhysics(wall_adhesion=adhesion))
+    x0, vol = box((0.4, 0.7, 0.4), (0.6, 0.8, 0.6), sim.dx / 2)
+    tr = sim.rollout(x0, torch.zeros(3), frames=3, frame_dt=0.1, particle_volume=vol)
+    return float(x0[:, 1].mean() - tr.x[-1, :, 1].mean())
+
+
+def test_wall_adhesion_holds_a_block_under_a_ceiling_above_its_weight_per_area():
+    """The block's weight per contact area is rho g h = 980 Pa: half of it lets the block fall, one and a half times
+    holds it; a sticky ceiling holds it anyway and adhesion changes nothing there."""
+    weight = 1000.0 * 9.8 * 0.1
+    free_fall = 0.5 * 9.8 * 0.3**2
+    assert _hanging_drop(0.0) > 0.9 * free_fall
+    assert _hanging_drop(weight / 2) > 0.3 * free_fall
+    assert _hanging_drop(1.5 * weight) < 1e-3
+    assert _hanging_drop(weight / 2, contact="sticky") == _hanging_drop(0.0, contact="sticky")
+
+
+def _simple_shear(thixotropy: float, rate: float = 2.0, dt: float = 1e-3, steps: int = 2000):
+    """A material point sheared at a constant rate, stepped through the kernels' return mapping and structure
+    update: the accumulated plastic shear strain and the equivalent shear stress |s| / sqrt(2) at every step."""
+    k = kn.build(wp.float64)
+    material = HerschelBulkley(tau_y=50.0, K=5.0, n=0.5, mu=2.0e4, lam=2.0e4)
+    mat = wp.array(material.kernel_vector(material.parameters()).numpy(), dtype=wp.float64)
+    F = wp.array(np.eye(3)[None], dtype=k.mat33)
+    C = wp.array(np.array([[[0.0, rate, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]]), dtype=k.mat33)
+    structure = wp.zeros(1, dtype=wp.float64)
+    q, lam_b = wp.zeros(1, dtype=k.mat33), wp.zeros(1, dtype=k.vec3)
+    strain, stress = [], []
+    for _ in range(steps):
+        F_out, tau_out, next_structure = wp.zeros_like(F), wp.zeros_like(F), wp.zeros_like(structure)
+        wp.launch(k.eigen, 1, inputs=[F, C, wp.float64(dt)], outputs=[q, lam_b])
+        wp.launch(k.structure_update, 1, inputs=[F, C, lam_b, mat, material.model, wp.float64(dt),
+                                                 wp.float64(thixotropy), structure], outputs=[next_structure])
+        wp.launch(k.return_mapping, 1, inputs=[F, C, mat, material.model, wp.float64(dt), structure,
+                                               wp.float64(thixotropy)], outputs=[F_out, tau_out])
+        F, structure = F_out, next_structure
+        tau = tau_out.numpy()[0]
+        dev = tau - np.trace(tau) / 3 * np.eye(3)
+        strain.append(float(structure.numpy()[0]))
+        stress.append(float(np.linalg.norm(dev) / math.sqrt(2.0)))
+    return np.array(strain), np.array(stress), material
+
+
+@pytest.mark.parametrize("thixotropy", [0.0, 0.5])
+def test_thixotropic_yield_stress_decays_with_the_plastic_strain(thixotropy):
+    """In steady simple shear the plastic strain grows at the imposed rate, and the stress follows the law with the
+    broken-down yield stress: tau_y exp(-thixotropy gamma_p) + K gamma_dot^n."""
+    rate, dt = 2.0, 1e-3
+    strain, stress, m = _simple_shear(thixotropy, rate, dt)
+    late = slice(1000, None)
+    assert np.allclose(np.diff(strain[late]) / dt, rate, rtol=0.01)
+    expected = m.tau_y * np.exp(-thixotropy * strain[late]) + m.K * rate**m.n
+    assert np.allclose(stress[late], expected, rtol=0.02)
+
+
+def test_optional_physics_at_their_null_values_change_nothing_and_thixotropy_is_not_differentiated():
+    material = HerschelBulkley(tau_y=50.0, K=5.0, n=0.5, mu=2.0e3, lam=2.0e3)
+    x0, vol = box((0.4, 0.2, 0.4), (0.6, 0.4, 0.6), 1.0 / 32)
+    runs = []
+    for physics in (OptionalPhysics(), OptionalPhysics(air_drag=1.0, thixotropy=1.0, wall_adhesion=100.0)):
+        sim = Simulator(material, resolution=16, colliders=[Floor(height=0.19, contact="slip")], physics=physics)
+        runs.append(sim.rollout(x0, torch.zeros(3), frames=2, frame_dt=0.05, particle_volume=vol).x)
+    base = Simulator(material, resolution=16, colliders=[Floor(height=0.19, contact="slip")])
+    assert torch.equal(runs[0], base.rollout(x0, torch.zeros(3), frames=2, frame_dt=0.05, particle_volume=vol).x)
+    assert not torch.allclose(runs[0], runs[1])
+    thixotropic = Simulator(material, resolution=16, physics=OptionalPhysics(thixotropy=1.0))
+    with pytest.raises(SimulationError, match="thixotropic"):
+        thixotropic.rollout(x0, torch.zeros(3, requires_grad=True), frames=1, frame_dt=0.05, particle_volume=vol)
+    with pytest.raises(ValueError, match="air_drag"):
+        OptionalPhysics(air_drag=-1.0)
