@@ -15,6 +15,6 @@ from rheo.physics.simulator import SimulationError, SimulationUnstable, Simulato
 
 __all__ = [
     "Box", "Collider", "Cup", "Floor", "HerschelBulkley", "Material", "MaterialError", "NeoHookean",
-    "NewtonianFluid", "OptionalPhysics", "Plasticine", "SimulationError", "SimulationUnstable", "Simulator", "Trajectory",
-    "dam_break_gate", "lifted_cup", "make_material",
+    "NewtonianFluid", "OptionalPhysics", "Plasticine", "SimulationError", "SimulationUnstable", "Simulator",
+    "Trajectory", "dam_break_gate", "lifted_cup", "make_material",
 ]

@@ -3,7 +3,9 @@
 One step is ``eigen`` (eigen-decomposition of the trial strain, for the Hencky models) and ``reached_nodes`` (the box
 of nodes the particles reach), then three differentiated launches: ``p2g`` (constitutive update and particle-to-grid
 transfer), ``grid_update`` (gravity and boundaries, over that box) and ``g2p`` (grid-to-particle transfer and
-advection); about a plane of symmetry, ``mirror_fold`` adds the mirror images' share to the grid after ``p2g``. Every
+advection); about a plane of symmetry, ``mirror_fold`` adds the mirror images' share to the grid after ``p2g``; a
+thixotropic material's ``structure_update`` accumulates each particle's plastic shear strain (``OptionalPhysics``:
+it lowers the yield stress in ``p2g``; air drag and wall adhesion act in ``grid_update``). Every
 input a loss may depend on (particle state, material parameters, boundary parameters) is a Warp array, so Warp's
 generated adjoints give the gradients. The plastic return on Hencky strain has a hand-written adjoint (divided
 differences of the eigenvalues) that stays finite at repeated eigenvalues (undeformed material) and needs no second
@@ -530,9 +532,9 @@ def build(scalar: type) -> SimpleNamespace:
         C_out[p] = new_C
         x_out[p] = x[p] + dt * new_v
 
-    return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, structure_update=structure_update, p2g=p2g, reached_nodes=reached_nodes,
-                           mirror_fold=mirror_fold, grid_update=grid_update, g2p=g2p, return_mapping=return_mapping,
-                           hb_excess=hb_excess_kernel)
+    return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, structure_update=structure_update, p2g=p2g,
+                           reached_nodes=reached_nodes, mirror_fold=mirror_fold, grid_update=grid_update, g2p=g2p,
+                           return_mapping=return_mapping, hb_excess=hb_excess_kernel)
 
 
 def scalar_type(dtype) -> type:

@@ -94,7 +94,7 @@ class Simulator:
                  colliders: tuple[Collider, ...] | list[Collider] = (), gravity=(0.0, -9.8, 0.0),
                  dtype: torch.dtype = torch.float32, cfl: float = 0.4, max_halvings: int = 4,
                  checkpoint_mb: float = 1024.0, domain_origin=(0.0, 0.0, 0.0),
-                 symmetry_z: float | None = None, physics: OptionalPhysics = OptionalPhysics()) -> None:
+                 symmetry_z: float | None = None, physics: OptionalPhysics | None = None) -> None:
         if not isinstance(material, Material):
             raise MaterialError(f"expected a Material, got {material!r}")
         if not (isinstance(resolution, int) and resolution >= 2 * kernels.BOUND + 2):
@@ -118,6 +118,7 @@ class Simulator:
         self.colliders = tuple(colliders)
         self.collider_arrays = pack(self.colliders, self.domain_origin)
         self.gravity = gravity
+        physics = OptionalPhysics() if physics is None else physics
         if not isinstance(physics, OptionalPhysics):
             raise SimulationError(f"physics must be an OptionalPhysics, got {physics!r}")
         self.physics = physics
