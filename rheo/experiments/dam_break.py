@@ -1,23 +1,25 @@
 """A dam break simulated: the material released from its cuboid behind the channel's walls, in a domain sized from
 how far the recording shows it going.
 
-The gate is not simulated: the material is released at once at t = 0, and the time of the first recorded frame
-after the release (the gate is half open there and the material already moving) is a fitted offset. One rollout
-recorded at a fine spacing serves every candidate offset. The channel is symmetric about its mid-plane: the half
-z < depth / 2 is simulated and mirrored, at half the cost of the whole.
+The base model does not simulate the gate: the material is released at once at t = 0, and the time of the first
+recorded frame after the release (the gate is half open there and the material already moving) is a fitted offset.
+One rollout recorded at a fine spacing serves every candidate offset. The channel is symmetric about its mid-plane:
+the half z < depth / 2 is simulated and mirrored, at half the cost of the whole. ``Effects`` adds what the base
+model leaves out (a gate lifted at a finite speed, a floor the material slides on, ...).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
 import torch
 
 from rheo.experiments.virheometry import CONTAINER_RIM, Setup, StaticBox, container_silhouette
-from rheo.physics import Box, Floor, HerschelBulkley, Simulator, kernels
+from rheo.physics import Box, Floor, HerschelBulkley, OptionalPhysics, Simulator, dam_break_gate, kernels
 from rheo.physics.simulator import Trajectory
 from rheo.vision.cameras import Camera
 
@@ -29,6 +31,33 @@ FACE_MARGIN = 1e-3
 
 class DamBreakError(ValueError):
     """A dam break that cannot be simulated as asked."""
+
+
+@dataclass(frozen=True)
+class Effects:
+    """What the base dam break leaves out, each at its null value by default (the base model, bit for bit).
+
+    ``floor_friction``: the Coulomb coefficient of a floor the material slides on (None: the floor as the setup
+    gives it). ``gate_lift_time`` (s): a gate at the cuboid's front slides up at a constant speed and clears the
+    material's height after this time (0: released at once). ``gravity_tilt`` (rad): gravity leans towards +x,
+    down the channel (a table or camera not level). ``density_factor``: the material's density times this (a wrong
+    density). ``physics``: the engine's optional physics (air drag, thixotropy, wall adhesion)."""
+
+    floor_friction: float | None = None
+    gate_lift_time: float = 0.0
+    gravity_tilt: float = 0.0
+    density_factor: float = 1.0
+    physics: OptionalPhysics = field(default_factory=OptionalPhysics)
+
+    def __post_init__(self) -> None:
+        if self.floor_friction is not None and not (math.isfinite(self.floor_friction) and self.floor_friction >= 0):
+            raise DamBreakError(f"floor friction coefficient {self.floor_friction!r} must be finite and >= 0")
+        if not (math.isfinite(self.gate_lift_time) and self.gate_lift_time >= 0):
+            raise DamBreakError(f"gate lift time {self.gate_lift_time!r} s must be finite and >= 0")
+        if not (math.isfinite(self.gravity_tilt) and abs(self.gravity_tilt) < 0.5 * math.pi):
+            raise DamBreakError(f"gravity tilt {self.gravity_tilt!r} rad must lie within (-pi/2, pi/2)")
+        if not (math.isfinite(self.density_factor) and self.density_factor > 0):
+            raise DamBreakError(f"density factor {self.density_factor!r} must be finite and > 0")
 
 
 def floor_footprint(camera: Camera, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -72,9 +101,12 @@ class DamBreakScene:
     def spacing(self) -> float:
         return self.dx / self.particles_per_cell
 
-    def colliders(self) -> list:
-        """The floor, and every wall above it as a box (the file's first box is the floor slab)."""
+    def colliders(self, effects: Effects | None = None) -> list:
+        """The floor, every wall above it as a box (the file's first box is the floor slab), and a lifted gate."""
+        effects = effects or Effects()
         floor_contact = next((w.contact for w in self.setup.walls if w.high[1] <= 0.0), "sticky")
+        floor = Floor(height=0.0, contact=floor_contact) if effects.floor_friction is None else \
+            Floor(height=0.0, contact="friction", friction=effects.floor_friction)
         cuboid_low, cuboid_high = self.setup.cuboid
         boxes = []
         for wall in standing_walls(self.setup):
@@ -86,7 +118,19 @@ class DamBreakScene:
             high = np.where(beyond, np.maximum(high, low + thick), high) + FACE_MARGIN * self.dx
             boxes.append(Box(center=tuple(0.5 * (low + high)), half_extents=tuple(0.5 * (high - low)),
                              contact=wall.contact))
-        return [Floor(height=0.0, contact=floor_contact), *boxes]
+        if effects.gate_lift_time > 0:
+            boxes.append(self.gate(effects.gate_lift_time))
+        return [floor, *boxes]
+
+    def gate(self, lift_time: float) -> Box:
+        """A slip gate plate on the cuboid's front face, two cells thick, across the channel and three material
+        heights tall, sliding up from the floor at the speed that clears the material's height in ``lift_time``."""
+        _, high = self.setup.cuboid
+        thick = WALL_CELLS * self.dx
+        low = np.array([high[0], 0.0, -thick]) - FACE_MARGIN * self.dx
+        top = np.array([high[0] + thick, 3.0 * self.setup.height, self.setup.depth + thick]) + FACE_MARGIN * self.dx
+        return dam_break_gate(self.setup.height / lift_time, center=tuple(0.5 * (low + top)),
+                              half_extents=tuple(0.5 * (top - low)))
 
     @property
     def simulated_cuboid(self) -> tuple[np.ndarray, np.ndarray]:
@@ -94,10 +138,15 @@ class DamBreakScene:
         low, high = self.setup.cuboid
         return low, high if self.mid_plane is None else np.array([high[0], high[1], self.mid_plane])
 
-    def simulator(self, material: HerschelBulkley) -> Simulator:
+    def simulator(self, material: HerschelBulkley, effects: Effects | None = None) -> Simulator:
+        effects = effects or Effects()
+        tilt = effects.gravity_tilt
+        gravity = (0.0, -GRAVITY, 0.0) if tilt == 0 else (GRAVITY * math.sin(tilt), -GRAVITY * math.cos(tilt), 0.0)
+        if effects.density_factor != 1:
+            material = dataclasses.replace(material, density=material.density * effects.density_factor)
         return Simulator(material, resolution=self.resolution, domain_size=self.domain_size,
-                         domain_origin=self.domain_origin, colliders=self.colliders(), gravity=(0.0, -GRAVITY, 0.0),
-                         symmetry_z=self.mid_plane)
+                         domain_origin=self.domain_origin, colliders=self.colliders(effects), gravity=gravity,
+                         symmetry_z=self.mid_plane, physics=effects.physics)
 
     @cached_property
     def initial_positions(self) -> np.ndarray:
@@ -112,14 +161,20 @@ class DamBreakScene:
         low, high = self.simulated_cuboid
         return float(np.prod(high - low)) / len(self.initial_positions)
 
-    def rollout(self, material: HerschelBulkley, duration: float, sample_dt: float) -> Trajectory:
+    def rollout(self, material: HerschelBulkley, duration: float, sample_dt: float,
+                effects: Effects | None = None) -> Trajectory:
         """The whole material's particles every ``sample_dt`` seconds from the release to ``duration`` (the
         simulated half's mirror images appended)."""
+        effects = effects or Effects()
         frames = int(np.ceil(duration / sample_dt - 1e-9))
-        simulator = self.simulator(material)
+        simulator = self.simulator(material, effects)
         # the fastest a dam break flows is about the free fall from the material's height (the simulator's own
-        # bound, a fall from the domain's height, takes smaller steps; an unstable step is retried at half)
-        dt, _ = simulator.time_step(sample_dt, math.sqrt(2.0 * GRAVITY * self.setup.height))
+        # bound, a fall from the domain's height, takes smaller steps; an unstable step is retried at half), or
+        # the gate's speed
+        speed = math.sqrt(2.0 * GRAVITY * self.setup.height)
+        if effects.gate_lift_time > 0:
+            speed = max(speed, self.setup.height / effects.gate_lift_time)
+        dt, _ = simulator.time_step(sample_dt, speed)
         with torch.no_grad():
             half = simulator.rollout(torch.as_tensor(self.initial_positions, dtype=torch.float32), torch.zeros(3),
                                      frames=frames, frame_dt=sample_dt, particle_volume=self.particle_volume, dt=dt)

@@ -18,7 +18,8 @@ from functools import partial
 import cv2
 import numpy as np
 
-from rheo.experiments.dam_break import DamBreakScene, dam_break_scene
+from rheo.diagnose.candidates import Law
+from rheo.experiments.dam_break import DamBreakScene, Effects, dam_break_scene
 from rheo.experiments.virheometry import CONTAINER_RIM, Setup, container_silhouette
 from rheo.physics import HerschelBulkley
 from rheo.render.silhouette import boundary_distance, distance_to, iou, silhouette
@@ -49,10 +50,12 @@ def shear_rates(velocity_gradient: np.ndarray) -> np.ndarray:
 
 @dataclass
 class Comparison:
-    """A material's best agreement with one setup: loss (px), the first frame's time after the release (s), and per
-    frame the boundary distance (px), the silhouettes' IoU and the IoU of the material outside the container."""
+    """A material's best agreement with one setup: loss (px) over the fitted frames, the first frame's time after
+    the release (s), and per frame the boundary distance (px), the silhouettes' IoU and the IoU of the material
+    outside the container."""
 
     loss: float
+    held_out_loss: float  # over the frames after the fitted ones (nan when every frame is fitted)
     offset: float
     distances: np.ndarray
     iou: np.ndarray
@@ -62,18 +65,23 @@ class Comparison:
 
 
 class DamBreakTarget:
-    """One setup's silhouettes and its simulated scene; ``max_offset``: the latest time (s) after the release that
-    the first frame may have."""
+    """One setup's silhouettes and its simulated scene; the first frame comes ``min_offset`` to ``max_offset``
+    seconds after the release; the first ``fitted`` frames (all by default) make the loss, the rest are held out."""
 
-    def __init__(self, scene: DamBreakScene, max_offset: float, elastic: tuple[float, float]) -> None:
+    def __init__(self, scene: DamBreakScene, max_offset: float, elastic: tuple[float, float],
+                 min_offset: float = 0.0, fitted: int | None = None) -> None:
         self.scene = scene
         self.setup = scene.setup
         self.masks = self.setup.masks
+        self.fitted = len(self.masks) if fitted is None else fitted
+        if not 1 <= self.fitted <= len(self.masks):
+            raise ValueError(f"{self.setup.folder}: {fitted} fitted frames of {len(self.masks)}")
         self.to_mask = [distance_to(m) for m in self.masks]
         # the recorded container is a pixel or two wider than the cuboid's outline (its walls, the binarisation):
         # what every frame shows within CONTAINER_RIM px of the outline counts as container
         rim = container_silhouette(self.setup, CONTAINER_RIM)
         self.container = container_silhouette(self.setup) | (rim & np.logical_and.reduce(self.masks))
+        self.first_offset = round(min_offset / OFFSET_STEP)
         self.offsets = round(max_offset / OFFSET_STEP)
         self.frame_steps = round(1.0 / (self.setup.fps * OFFSET_STEP))
         if not np.isclose(self.frame_steps * OFFSET_STEP * self.setup.fps, 1.0):
@@ -83,10 +91,10 @@ class DamBreakTarget:
     def material(self, tau_y: float, K: float, n: float) -> HerschelBulkley:
         return HerschelBulkley(tau_y=tau_y, K=K, n=n, mu=self.mu, lam=self.lam, density=self.setup.density)
 
-    def compare(self, tau_y: float, K: float, n: float) -> Comparison:
+    def compare(self, tau_y: float, K: float, n: float, effects: Effects | None = None) -> Comparison:
         frames = len(self.masks)
         steps = self.offsets + (frames - 1) * self.frame_steps
-        trajectory = self.scene.rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP)
+        trajectory = self.scene.rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP, effects)
         positions = trajectory.x.numpy()
         drawn = {}
 
@@ -95,26 +103,30 @@ class DamBreakTarget:
                 drawn[step] = skin(self.setup.camera, positions[step], self.scene.spacing) | self.container
             return drawn[step]
 
+        starts = range(self.first_offset, self.offsets + 1)
         table = np.array([[boundary_distance(simulated(start + k * self.frame_steps), self.masks[k], self.to_mask[k])
-                           for k in range(frames)] for start in range(self.offsets + 1)])
-        best = int(np.argmin(table.mean(axis=1)))
+                           for k in range(frames)] for start in starts])
+        best_row = int(np.argmin(table[:, :self.fitted].mean(axis=1)))
+        best, distances = starts[best_row], table[best_row]
         chosen = [simulated(best + k * self.frame_steps) for k in range(frames)]
         outside = ~self.container
         overlap = np.array([iou(s, m) for s, m in zip(chosen, self.masks, strict=True)])
         outflow = np.array([iou(s & outside, m & outside) for s, m in zip(chosen, self.masks, strict=True)])
         steps_compared = best + self.frame_steps * np.arange(frames)
         rates = shear_rates(trajectory.C.numpy()[steps_compared]).ravel()
-        return Comparison(float(table[best].mean()), best * OFFSET_STEP, table[best], overlap, outflow,
-                          rates[rates > MOVING_RATE], np.stack(chosen))
+        held_out = distances[self.fitted:]
+        return Comparison(float(distances[:self.fitted].mean()), float(held_out.mean()) if len(held_out) else np.nan,
+                          best * OFFSET_STEP, distances, overlap, outflow, rates[rates > MOVING_RATE], np.stack(chosen))
 
 
 NAMES = ("tau_y", "K", "n")  # the fitted parameters, searched as logarithms
 RESULT_KEYS = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}  # their keys in params.json
 
 
-def comparisons(setups: dict[str, tuple[str, str]], simulation: dict) -> dict[str, Callable[[np.ndarray], Comparison]]:
-    """For every setup (name: (setup.json, masks.npz) of its import), the comparison of a material given as log
-    (tau_y, K, n) with it; built once per worker process."""
+def comparisons(setups: dict[str, tuple[str, str]], simulation: dict,
+                law: Law | None = None) -> dict[str, Callable[[np.ndarray], Comparison]]:
+    """For every setup (name: (setup.json, masks.npz) of its import), the comparison with it of a material and
+    effects given as a search vector of ``law`` (log tau_y, K and n by default); built once per worker process."""
     objectives = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:
@@ -122,10 +134,11 @@ def comparisons(setups: dict[str, tuple[str, str]], simulation: dict) -> dict[st
         scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
                                 simulation["particles_per_cell"])
         target = DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]))
-        objectives[name] = partial(_compare, target)
+        objectives[name] = partial(_compare, target, law or Law())
     return objectives
 
 
-def _compare(target: DamBreakTarget, log_values: np.ndarray) -> Comparison:
-    return target.compare(*np.exp(log_values))
+def _compare(target: DamBreakTarget, law: Law, x: np.ndarray) -> Comparison:
+    values, effects = law.unpack(x)
+    return target.compare(**values, effects=effects)
 

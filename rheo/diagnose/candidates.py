@@ -1,0 +1,108 @@
+"""The effects a diagnosis can name: each one parameter that the base dam-break model holds at its null value.
+
+Six are physics a recording may show (floor friction, wall adhesion, a gate lifted at a finite speed, shear
+thinning, thixotropy, air drag); two are decoys, not physics of the material (gravity tilted, a wrong density): a
+diagnosis that names them has found a free parameter that fits, not an effect. Each is searched on a coordinate
+(its logarithm, or the value itself for the two-sided ones) from a modest effect, within a box.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rheo.experiments.dam_break import Effects
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """An effect: ``name`` (key), ``title`` (plain words), its parameter (``parameter``, ``unit``), the ``null`` value
+    that gives back the base model, where a refit ``start``s and the box [``low``, ``high``] it searches, on the
+    logarithm when ``log``."""
+
+    name: str
+    title: str
+    parameter: str
+    unit: str
+    null: float
+    start: float
+    low: float
+    high: float
+    log: bool = True
+    decoy: bool = False
+    step: float = 0.7  # initial simplex step on the search coordinate
+
+    def coordinate(self, value: float) -> float:
+        return math.log(value) if self.log else value
+
+    def value(self, coordinate: float) -> float:
+        return math.exp(coordinate) if self.log else coordinate
+
+    @property
+    def bounds(self) -> tuple[float, float]:
+        return self.coordinate(self.low), self.coordinate(self.high)
+
+    def apply(self, value: float, law: dict[str, float], effects: Effects) -> tuple[dict[str, float], Effects]:
+        """The law (tau_y, K, n) and effects with this effect at ``value``."""
+        physics = effects.physics
+        match self.name:
+            case "floor_friction":
+                return law, dataclasses.replace(effects, floor_friction=value)
+            case "wall_adhesion":
+                return law, dataclasses.replace(effects, physics=dataclasses.replace(physics, wall_adhesion=value))
+            case "gate_lift":
+                return law, dataclasses.replace(effects, gate_lift_time=value)
+            case "shear_thinning":
+                return {**law, "n": value}, effects
+            case "thixotropy":
+                return law, dataclasses.replace(effects, physics=dataclasses.replace(physics, thixotropy=value))
+            case "air_drag":
+                return law, dataclasses.replace(effects, physics=dataclasses.replace(physics, air_drag=value))
+            case "gravity_tilt":
+                return law, dataclasses.replace(effects, gravity_tilt=math.radians(value))
+            case "density":
+                return law, dataclasses.replace(effects, density_factor=value)
+        raise ValueError(f"unknown effect {self.name!r}")
+
+
+CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
+    # null: a sticky floor (an infinite coefficient); the box reaches from a floor that barely holds to nearly sticky
+    Candidate("floor_friction", "floor friction (the material slides on the floor)", "Coulomb coefficient", "",
+              math.inf, 1.0, 0.05, 5.0),
+    Candidate("wall_adhesion", "wall adhesion (smooth walls hold the material)", "adhesion", "Pa", 0.0, 20.0, 1.0,
+              1000.0),
+    Candidate("gate_lift", "a gate lifted at a finite speed", "lift time", "s", 0.0, 0.05, 0.005, 0.3),
+    Candidate("shear_thinning", "shear thinning (flow index n != 1)", "flow index n", "", 1.0, 0.7, 0.15, 2.0,
+              step=0.3),
+    Candidate("thixotropy", "thixotropy (the yield stress falls as the material is sheared)", "breakdown per unit "
+              "plastic shear strain", "", 0.0, 0.3, 0.01, 10.0),
+    Candidate("air_drag", "air drag", "quadratic drag coefficient", "1/m", 0.0, 3.0, 0.1, 100.0),
+    Candidate("gravity_tilt", "gravity tilted along the channel (decoy)", "tilt", "deg", 0.0, 0.0, -15.0, 15.0,
+              log=False, decoy=True, step=3.0),
+    Candidate("density", "a wrong density (decoy)", "density factor", "", 1.0, 1.0, 0.5, 2.0, decoy=True, step=0.2),
+)}
+
+
+@dataclass(frozen=True)
+class Law:
+    """How a search vector maps to a material and effects: log tau_y, log K, then log n unless the flow index is
+    fixed at ``n``, then the ``candidate`` effect's coordinate, if any."""
+
+    n: float | None = None
+    candidate: Candidate | None = None
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        law = ("tau_y", "K") if self.n is not None else ("tau_y", "K", "n")
+        return law + ((self.candidate.name,) if self.candidate else ())
+
+    def unpack(self, x) -> tuple[dict[str, float], Effects]:
+        values = np.exp(np.asarray(x[:2 if self.n is not None else 3], dtype=float))
+        law = {"tau_y": values[0], "K": values[1], "n": self.n if self.n is not None else values[2]}
+        effects = Effects()
+        if self.candidate is not None:
+            law, effects = self.candidate.apply(self.candidate.value(float(x[-1])), law, effects)
+        return law, effects
