@@ -200,19 +200,20 @@ def mid_plane(setup: Setup) -> float | None:
 
 
 def dam_break_scene(setup: Setup, cells_per_height: int = 8, cells_across: int = 10, particles_per_cell: int = 2,
-                    margin: float = 0.25) -> DamBreakScene:
+                    margin: float = 0.25, reach: float | None = None) -> DamBreakScene:
     """The scene of ``setup`` on cells of at most H / ``cells_per_height`` and at most the channel's depth /
     ``cells_across``: a cube holding the channel and the material that leaves it, the ``runout`` past the gate and
     as far to either side (grown by ``margin``), above ``kernels.BOUND`` boundary cells on every face and one more
     cell behind the back wall and under the floor. When the walls are symmetric about the channel's mid-plane, the
-    half before it is simulated, and the cube needs to reach only a few cells past it.
+    half before it is simulated, and the cube needs to reach only a few cells past it. ``reach`` (m) replaces the
+    recorded runout where there is no recording yet.
 
     The channel's walls lie on node planes (a node on a wall's face belongs to the wall): the back wall at x = 0,
     the floor at y = 0, the side walls at z = 0 and z = depth, an even number of cells apart (the mid-plane too).
     Off the node planes, the channel's width on the grid changes by up to two cells with the resolution."""
     cells = math.ceil(max(setup.depth * cells_per_height / setup.height, cells_across) - 1e-9)
     dx = setup.depth / (cells + cells % 2)  # an even number: the mid-plane is a node plane too
-    spread = (1.0 + margin) * max(runout(setup), 0.5 * setup.height)
+    spread = (1.0 + margin) * max(runout(setup) if reach is None else reach, 0.5 * setup.height)
     middle = mid_plane(setup)
     low = np.array([0.0, -spread])
     high = np.array([setup.width + spread, setup.depth + spread if middle is None

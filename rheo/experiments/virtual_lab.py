@@ -114,7 +114,7 @@ def _write_png(path: Path, image: np.ndarray) -> None:
     cv2.imwrite(str(path), image[..., ::-1] if image.ndim == 3 else image)
 
 
-def _lab_view(camera: Camera, points: np.ndarray | None = None, spacing: float | None = None,
+def lab_view(camera: Camera, points: np.ndarray | None = None, spacing: float | None = None,
               board: FloorBoard | None = None) -> tuple[np.ndarray, np.ndarray]:
     """A noise-free view rendered at twice the resolution and averaged down: image (float, 0-255) and true mask."""
     image, mask = render(_supersampled(camera, 2), points, spacing, board=board)
@@ -130,17 +130,17 @@ def _film_camera(cam_dir: Path, cam: Camera, truth: dict, board: LabBoard, fps: 
     rng = np.random.default_rng(seed)
     frames = []
     for f, points in enumerate(truth["positions"]):
-        image, mask = _lab_view(cam, points, truth["spacing"])
+        image, mask = lab_view(cam, points, truth["spacing"])
         image = _uint8(image + rng.normal(0.0, 255 * Scene.noise, image.shape))
         _write_png(cam_dir / "frames" / f"{f:03d}.png", image)
         _write_png(cam_dir / "masks" / f"{f:03d}.png", mask.astype(np.uint8) * 255)
         frames.append(image)
     imageio.mimwrite(cam_dir / "video.mp4", frames, fps=max(fps, 1.0), macro_block_size=1, quality=9)
-    _write_png(cam_dir / "clean_plate.png", _uint8(_lab_view(cam)[0]))
+    _write_png(cam_dir / "clean_plate.png", _uint8(lab_view(cam)[0]))
     for i, pose in enumerate(board_poses(cam, board, rng)):
         _write_png(cam_dir / "checkerboard" / f"{i:02d}.png", render_board_view(cam, board, pose, rng))
     floor_board = FloorBoard(board.columns, board.rows, board.square, board.ground_origin)
-    _write_png(cam_dir / "ground_board.png", _uint8(_lab_view(cam, board=floor_board)[0]))
+    _write_png(cam_dir / "ground_board.png", _uint8(lab_view(cam, board=floor_board)[0]))
 
 
 def write_recordings(out_dir: str | Path, exp: dict, truth: dict, board: LabBoard = LabBoard(), seed: int = 0,

@@ -123,22 +123,28 @@ NAMES = ("tau_y", "K", "n")  # the fitted parameters, searched as logarithms
 RESULT_KEYS = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}  # their keys in params.json
 
 
-def comparisons(setups: dict[str, tuple[str, str]], simulation: dict,
-                law: Law | None = None) -> dict[str, Callable[[np.ndarray], Comparison]]:
-    """For every setup (name: (setup.json, masks.npz) of its import), the comparison with it of a material and
-    effects given as a search vector of ``law`` (log tau_y, K and n by default); built once per worker process."""
-    objectives = {}
+def targets(setups: dict[str, tuple[str, str]], simulation: dict) -> dict[str, DamBreakTarget]:
+    """Every setup (name: (setup.json, masks.npz) of its import) as a target, simulated with ``simulation``'s grid,
+    particles and elastic constants; its first frame ``min_offset`` (default 0) to ``max_offset`` s after the
+    release, its first ``fitted_frames`` (default all) fitted."""
+    out = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:
             setup = Setup.from_record(json.load(f), np.load(masks)["masks"])
         scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
                                 simulation["particles_per_cell"])
-        target = DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]))
-        objectives[name] = partial(_compare, target, law or Law())
-    return objectives
+        out[name] = DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]),
+                                   simulation.get("min_offset", 0.0), simulation.get("fitted_frames"))
+    return out
 
 
-def _compare(target: DamBreakTarget, law: Law, x: np.ndarray) -> Comparison:
+def comparisons(setups: dict[str, tuple[str, str]], simulation: dict,
+                law: Law | None = None) -> dict[str, Callable[[np.ndarray], Comparison]]:
+    """For every setup, the comparison with it of a material and effects given as a search vector of ``law`` (log
+    tau_y, K and n by default); built once per worker process."""
+    return {name: partial(compare_law, target, law or Law()) for name, target in targets(setups, simulation).items()}
+
+
+def compare_law(target: DamBreakTarget, law: Law, x: np.ndarray) -> Comparison:
     values, effects = law.unpack(x)
     return target.compare(**values, effects=effects)
-

@@ -85,21 +85,29 @@ class EvaluationLog:
     def evaluate(self, objective: Callable[[np.ndarray], float], x: np.ndarray, phase: str) -> float:
         return self.evaluate_many(lambda points: [objective(p) for p in points], [x], phase)[0]
 
-    def evaluate_many(self, objective: Callable[[list[np.ndarray]], list[float]], points: Sequence[np.ndarray],
-                      phase: str) -> list[float]:
-        """Losses of ``points``, those not stored evaluated together by ``objective`` (on several processes, say)."""
+    def evaluate_many(self, objective: Callable[[list[np.ndarray]], list[float | dict]],
+                      points: Sequence[np.ndarray], phase: str) -> list[float]:
+        """Losses of ``points``, those not stored evaluated together by ``objective`` (on several processes, say).
+        An objective may return a dict of JSON-ready details with the loss under "loss"; they are stored with it."""
         with self._lock:
             todo = [x for x in points if self._point_key(phase, x) not in self._index]
         if todo:
-            losses = objective(todo)
+            values = objective(todo)
             with self._lock:
-                for x, loss in zip(todo, losses, strict=True):
-                    record = {"phase": phase, "x": [float(v) for v in x], "loss": float(loss)}
+                for x, value in zip(todo, values, strict=True):
+                    details = value if isinstance(value, dict) else {"loss": value}
+                    record = {"phase": phase, "x": [float(v) for v in x], **details,
+                              "loss": float(details["loss"])}
                     self.records.append(record)
                     self._index[self._point_key(phase, x)] = record
                 self._write()
         with self._lock:
             return [self._index[self._point_key(phase, x)]["loss"] for x in points]
+
+    def record(self, phase: str, x) -> dict:
+        """The stored record of a point evaluated in ``phase``."""
+        with self._lock:
+            return self._index[self._point_key(phase, x)]
 
     def _write(self) -> None:
         seconds = self.earlier_seconds + time.monotonic() - self._started

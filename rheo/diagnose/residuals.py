@@ -1,0 +1,138 @@
+"""Where a dam break's simulation and recording disagree: residual maps, and the mismatch located in time (which
+frames) and in space (inside the container, the front, the contact line on the floor, the free surface), said in
+plain words.
+
+The regions are drawn in the image: the container is the material's initial cuboid seen by the camera; outside it,
+the front is the far tenth of the material's reach along the channel, the contact line the band of a few pixels
+above the floor's near edge, and the free surface the rest.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rheo.experiments.virheometry import Setup, container_silhouette
+
+REGIONS = ("inside the container", "front", "contact line", "free surface")
+CONTACT_BAND = 4  # px above the floor's near edge
+FRONT_SHARE = 0.1  # the far tenth of the reach along the channel
+
+
+@dataclass
+class Residual:
+    """One frame's mismatch: pixels the simulation fills that the recording does not (``extra``), and the reverse
+    (``missing``)."""
+
+    extra: np.ndarray
+    missing: np.ndarray
+
+    @classmethod
+    def of(cls, simulated: np.ndarray, observed: np.ndarray) -> Residual:
+        return cls(simulated & ~observed, observed & ~simulated)
+
+    def image(self, observed: np.ndarray) -> np.ndarray:
+        """RGB (H, W, 3) floats: the recording grey, the simulation's extra material red, its missing material
+        blue."""
+        rgb = np.ones((*observed.shape, 3))
+        rgb[observed] = 0.75
+        rgb[self.extra] = (0.85, 0.15, 0.1)
+        rgb[self.missing] = (0.15, 0.35, 0.9)
+        return rgb
+
+
+def floor_edge_rows(setup: Setup) -> np.ndarray:
+    """For every image column, the row where the floor's near edge (z = depth, the channel's side nearer the
+    camera) projects (nan where it does not)."""
+    camera = setup.camera
+    xs = np.linspace(-0.5, 1.5, 2001)
+    points = np.stack([xs, np.zeros_like(xs), np.full_like(xs, setup.depth)], axis=1)
+    uv, depth = camera.project(points)
+    keep = depth > 0
+    order = np.argsort(uv[keep, 0])
+    columns = np.arange(camera.width)
+    return np.interp(columns, uv[keep, 0][order], uv[keep, 1][order], left=np.nan, right=np.nan)
+
+
+def region_masks(setup: Setup, silhouettes: list[np.ndarray]) -> dict[str, np.ndarray]:
+    """The image regions of ``REGIONS`` (H, W bool, disjoint), from the setup and the silhouettes of both sides
+    (simulated and recorded, all frames): the front lies beyond the material's farthest reach less a tenth of
+    its reach outside the container."""
+    container = container_silhouette(setup)
+    height, width = container.shape
+    rows, columns = np.mgrid[:height, :width]
+    outside = np.logical_or.reduce(silhouettes) & ~container
+    container_columns = np.flatnonzero(container.any(axis=0))
+    gate = container_columns.max() if len(container_columns) else 0
+    reach_columns = np.flatnonzero(outside.any(axis=0))
+    reach = reach_columns.max() if len(reach_columns) else gate
+    front = columns >= reach - FRONT_SHARE * max(reach - gate, 1)
+    edge = floor_edge_rows(setup)[None, :]
+    contact = (rows >= edge - CONTACT_BAND) & (rows <= edge + CONTACT_BAND)
+    regions = {"inside the container": container,
+               "front": ~container & front,
+               "contact line": ~container & ~front & contact}
+    regions["free surface"] = ~(regions["inside the container"] | regions["front"] | regions["contact line"])
+    return regions
+
+
+@dataclass
+class Location:
+    """The mismatch over frames and regions: pixel counts (frames, regions) of extra and missing material."""
+
+    extra: np.ndarray
+    missing: np.ndarray
+    frame_labels: list[str]
+
+    @property
+    def total(self) -> np.ndarray:
+        return self.extra + self.missing
+
+    def by_frame(self) -> np.ndarray:
+        return self.total.sum(axis=1)
+
+    def by_region(self) -> dict[str, float]:
+        share = self.total.sum(axis=0) / max(float(self.total.sum()), 1.0)
+        return dict(zip(REGIONS, share.tolist(), strict=True))
+
+    def words(self) -> str:
+        """The mismatch in plain words: when, where, and which way."""
+        if self.total.sum() == 0:
+            return "The simulation matches every frame."
+        per_frame = self.by_frame()
+        order = np.argsort(per_frame)[::-1]
+        # the fewest frames that carry half the mismatch
+        heavy = sorted(order[:int(np.searchsorted(np.cumsum(per_frame[order]), 0.5 * per_frame.sum())) + 1])
+        third = len(per_frame) / 3
+        when = ("early" if max(heavy) < third else "late" if min(heavy) >= 2 * third
+                else "in the middle" if min(heavy) >= third and max(heavy) < 2 * third else "throughout")
+        frames = ", ".join(self.frame_labels[k] for k in heavy)
+        shares = self.by_region()
+        where = max(shares, key=shares.get)
+        k = REGIONS.index(where)
+        extra, missing = self.extra[:, k].sum(), self.missing[:, k].sum()
+        way = {"front": ("the simulated front runs ahead of the recording", "the simulated front lags behind"),
+               "contact line": ("the simulation spreads more along the floor", "the recording spreads more along "
+                                "the floor"),
+               "free surface": ("the simulated surface stands higher", "the simulated surface lies lower"),
+               "inside the container": ("the simulation leaves more material in the container",
+                                        "the simulation drains the container more")}[where]
+        direction = way[0] if extra >= missing else way[1]
+        return (f"Half the mismatch lies in frames {frames} ({when}); {100 * shares[where]:.0f} % of it at the "
+                f"{where}, where {direction} ({100 * max(extra, missing) / max(extra + missing, 1):.0f} % "
+                f"{'extra' if extra >= missing else 'missing'} material).")
+
+
+def locate(setup: Setup, simulated: list[np.ndarray], observed: list[np.ndarray],
+           frame_labels: list[str]) -> Location:
+    """Pixel counts of the mismatch per frame and region."""
+    regions = region_masks(setup, [*simulated, *observed])
+    extra = np.zeros((len(observed), len(REGIONS)))
+    missing = np.zeros_like(extra)
+    for f, (s, o) in enumerate(zip(simulated, observed, strict=True)):
+        residual = Residual.of(s, o)
+        for k, name in enumerate(REGIONS):
+            extra[f, k] = (residual.extra & regions[name]).sum()
+            missing[f, k] = (residual.missing & regions[name]).sum()
+    return Location(extra, missing, frame_labels)

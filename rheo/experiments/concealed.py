@@ -1,0 +1,69 @@
+"""Concealed-effect dam breaks: a virtual lab films a dam break with one effect switched on that the fit's base model
+lacks (or none), and neither the fit nor the diagnosis is told which.
+
+The lab simulates on a finer grid, with more particles per cell, than the fit, and draws the material with the
+virtual lab's renderer (splats of another radius, supersampled), so the fit never sees its own model's output. The
+recording takes the form of an imported ViRheometry setup (setup.json and masks.npz: silhouettes that include the
+container); its first frame comes one frame interval after the release, which the lab knows.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from rheo.diagnose.candidates import CANDIDATES
+from rheo.experiments.dam_break import Effects, dam_break_scene
+from rheo.experiments.virheometry import Setup, StaticBox, container_silhouette
+from rheo.experiments.virtual_lab import lab_view
+from rheo.physics import HerschelBulkley
+from rheo.vision.cameras import Camera, intrinsics, look_at
+
+WALL = 0.003  # m: the channel's walls' thickness
+WALL_HEIGHT = 0.2  # m
+
+
+def channel(scene: dict, name: str, masks: list[np.ndarray] | None = None) -> Setup:
+    """The scene's channel (``height``, ``width``, ``depth`` in m, ``walls`` and ``floor`` contact laws,
+    ``camera``, ``fps``, ``density``) as a setup, with ``masks`` if given."""
+    height, width, depth = scene["height"], scene["width"], scene["depth"]
+    walls = [StaticBox((-1.0, -0.01, -1.0), (1.0, 0.0, 1.0), scene["floor"]),
+             StaticBox((-WALL, 0.0, 0.0), (0.0, WALL_HEIGHT, depth), scene["walls"]),
+             StaticBox((-WALL, 0.0, -WALL), (width, WALL_HEIGHT, 0.0), scene["walls"]),
+             StaticBox((-WALL, 0.0, depth), (width, WALL_HEIGHT, depth + WALL), scene["walls"])]
+    cam = scene["camera"]
+    camera = Camera(cam["width"], cam["height"], intrinsics(cam["width"], cam["height"], cam["fov_deg"]),
+                    np.zeros(5), look_at(cam["eye"], cam["look_at"]))
+    return Setup(folder=Path(name), material=name, index=1, height=height, width=width, depth=depth,
+                 density=scene["density"], walls=walls, camera=camera, masks=list(masks or []), start_point=None,
+                 fps=scene["fps"])
+
+
+def concealed_truth(case: dict, base: dict[str, float]) -> tuple[dict[str, float], Effects]:
+    """The law (tau_y, K, n) and effects the lab films: the ``base`` law with the case's ``effect`` at its
+    ``magnitude`` (effect ``none``: the base law alone)."""
+    law = {"n": 1.0, **base}
+    if case["effect"] == "none":
+        return law, Effects()
+    if case["effect"] not in CANDIDATES:
+        raise ValueError(f"unknown effect {case['effect']!r}; known: none, {', '.join(CANDIDATES)}")
+    return CANDIDATES[case["effect"]].apply(case["magnitude"], law, Effects())
+
+
+def film(scene: dict, lab: dict, name: str, law: dict[str, float], effects: Effects,
+         mu: float, lam: float) -> Setup:
+    """The lab's recording: ``scene["frames"]`` silhouettes, the first one frame interval after the release,
+    simulated at the ``lab``'s resolution (``cells_per_height``, ``cells_across``, ``particles_per_cell``;
+    ``reach``: how far past the gate (m) the simulated floor extends)."""
+    setup = channel(scene, name)
+    lab_scene = dam_break_scene(setup, lab["cells_per_height"], lab["cells_across"], lab["particles_per_cell"],
+                                reach=lab["reach"])
+    material = HerschelBulkley(**law, mu=mu, lam=lam, density=setup.density)
+    dt = 1.0 / setup.fps
+    trajectory = lab_scene.rollout(material, scene["frames"] * dt, dt, effects)
+    container = container_silhouette(setup)
+    masks = [lab_view(setup.camera, trajectory.x[k].numpy(), lab_scene.spacing)[1] | container
+             for k in range(1, scene["frames"] + 1)]
+    setup.masks[:] = masks
+    return setup
