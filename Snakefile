@@ -20,10 +20,11 @@ include: "workflow/rules/matte.smk"
 include: "workflow/rules/seed.smk"
 include: "workflow/rules/velocity.smk"
 include: "workflow/rules/fit.smk"
-include: "workflow/rules/diagnose.smk"
 include: "workflow/rules/novel.smk"
 include: "workflow/rules/report.smk"
 include: "workflow/rules/virheometry.smk"
+include: "workflow/rules/concealed.smk"
+include: "workflow/rules/diagnose.smk"
 
 
 rule all:

@@ -1,7 +1,7 @@
-"""virheometry_fit: tau_y, K and n of one material from its dam breaks (all its setups jointly, or one), with the
-first frame's time after the release found for each setup. The survey's points and the profile's run on every
-core; the searches from the survey's best points run side by side, each evaluation simulating the setups side by
-side. Every evaluation is stored, so an interrupted fit resumes."""
+"""virheometry_fit: tau_y, K and n (or tau_y and K at a fixed flow index) of one material from its dam breaks (all
+its setups jointly, or one), with the first frame's time after the release found for each setup. The survey's
+points and the profile's run on every core; the searches from the survey's best points run side by side, each
+evaluation simulating the setups side by side. Every evaluation is stored, so an interrupted fit resumes."""
 
 import csv
 import time
@@ -11,7 +11,8 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from rheo.fit.dam_break import MOVING_RATE, NAMES, RESULT_KEYS, comparisons
+from rheo.diagnose.candidates import Law
+from rheo.fit.dam_break import MOVING_RATE, RESULT_KEYS, comparisons, setup_files
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, multistart_search, start_step, survey_points
 from rheo.fit.uncertainty import profile_intervals, profile_points, tolerated
@@ -24,8 +25,9 @@ smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
 started = time.time()
 settings, simulation = smk.params.settings, smk.params.simulation
-setups = {Path(record).parent.name: (record, masks)
-          for record, masks in zip(smk.input.setups, smk.input.masks, strict=True)}
+setups = setup_files(smk.input.setups, smk.input.masks)
+law = Law(n=settings.get("flow_index"))
+NAMES = law.names
 low = np.log([settings[n][0] for n in NAMES])
 high = np.log([settings[n][1] for n in NAMES])
 output = Path(smk.output.params)
@@ -39,7 +41,7 @@ def describe(x: np.ndarray) -> str:
     return ", ".join(f"{n} {v:.4g}" for n, v in zip(NAMES, np.exp(x), strict=True))
 
 
-with Evaluator(partial(comparisons, setups, simulation), workers=smk.threads) as evaluator:
+with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.threads) as evaluator:
 
     def joint(points: list[np.ndarray]) -> list[float]:
         """The mean over the setups of each point's loss; all (point, setup) simulations side by side."""
@@ -81,6 +83,8 @@ rates = np.concatenate([d.shear_rates for d in details.values()])
 band = np.percentile(rates, [5, 95]).tolist() if len(rates) else None
 params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined}
           for n, i in intervals.items()}
+if law.n is not None:
+    params[RESULT_KEYS["n"]] = {"value": law.n, "ci95": [law.n, law.n], "determined": True, "fixed": True}
 for n, i in intervals.items():
     log.info("%s = %.4g, 95%% interval [%.4g, %.4g]%s", n, i.value, i.low, i.high,
              "" if i.determined else " (not determined by the recordings)")
@@ -89,7 +93,8 @@ if len(rates):
 else:
     log.warning("no particle moved faster than %g 1/s: no shear-rate band", MOVING_RATE)
 write_json_atomic(output, {
-    **params, "setups": {name: {"loss_px": d.loss, "first_frame_after_release_s": d.offset,
+    **params, "setups": {name: {"loss_px": d.loss, "held_out_loss_px": None if np.isnan(d.held_out_loss)
+                                else d.held_out_loss, "first_frame_after_release_s": d.offset,
                                 "boundary_distance_px": d.distances.tolist(), "silhouette_iou": d.iou.tolist(),
                                 "outflow_iou": d.outflow_iou.tolist()} for name, d in details.items()},
     "within_tolerance": {"evaluations": spread.count, "ridge": spread.ridge, "laws": np.exp(spread.points).tolist(),

@@ -20,28 +20,6 @@ CONTACT_BAND = 4  # px above the floor's near edge
 FRONT_SHARE = 0.1  # the far tenth of the reach along the channel
 
 
-@dataclass
-class Residual:
-    """One frame's mismatch: pixels the simulation fills that the recording does not (``extra``), and the reverse
-    (``missing``)."""
-
-    extra: np.ndarray
-    missing: np.ndarray
-
-    @classmethod
-    def of(cls, simulated: np.ndarray, observed: np.ndarray) -> Residual:
-        return cls(simulated & ~observed, observed & ~simulated)
-
-    def image(self, observed: np.ndarray) -> np.ndarray:
-        """RGB (H, W, 3) floats: the recording grey, the simulation's extra material red, its missing material
-        blue."""
-        rgb = np.ones((*observed.shape, 3))
-        rgb[observed] = 0.75
-        rgb[self.extra] = (0.85, 0.15, 0.1)
-        rgb[self.missing] = (0.15, 0.35, 0.9)
-        return rgb
-
-
 def floor_edge_rows(setup: Setup) -> np.ndarray:
     """For every image column, the row where the floor's near edge (z = depth, the channel's side nearer the
     camera) projects (nan where it does not)."""
@@ -131,8 +109,7 @@ def locate(setup: Setup, simulated: list[np.ndarray], observed: list[np.ndarray]
     extra = np.zeros((len(observed), len(REGIONS)))
     missing = np.zeros_like(extra)
     for f, (s, o) in enumerate(zip(simulated, observed, strict=True)):
-        residual = Residual.of(s, o)
         for k, name in enumerate(REGIONS):
-            extra[f, k] = (residual.extra & regions[name]).sum()
-            missing[f, k] = (residual.missing & regions[name]).sum()
+            extra[f, k] = (s & ~o & regions[name]).sum()
+            missing[f, k] = (o & ~s & regions[name]).sum()
     return Location(extra, missing, frame_labels)

@@ -14,6 +14,7 @@ import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -62,6 +63,11 @@ class Comparison:
     outflow_iou: np.ndarray
     shear_rates: np.ndarray  # 1/s, of the moving particles over the compared frames
     silhouettes: np.ndarray  # (frames, H, W) bool: the simulated silhouettes compared, container included
+    fitted: int  # the first this many frames are fitted, the rest held out
+
+    @property
+    def fitted_distances(self) -> np.ndarray:
+        return self.distances[:self.fitted]
 
 
 class DamBreakTarget:
@@ -116,25 +122,33 @@ class DamBreakTarget:
         rates = shear_rates(trajectory.C.numpy()[steps_compared]).ravel()
         held_out = distances[self.fitted:]
         return Comparison(float(distances[:self.fitted].mean()), float(held_out.mean()) if len(held_out) else np.nan,
-                          best * OFFSET_STEP, distances, overlap, outflow, rates[rates > MOVING_RATE], np.stack(chosen))
+                          best * OFFSET_STEP, distances, overlap, outflow, rates[rates > MOVING_RATE], np.stack(chosen),
+                          self.fitted)
 
 
 NAMES = ("tau_y", "K", "n")  # the fitted parameters, searched as logarithms
 RESULT_KEYS = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}  # their keys in params.json
 
 
+def setup_files(records: list[str], masks: list[str]) -> dict[str, tuple[str, str]]:
+    """The imported setups by name (their source folder's): (setup.json, masks.npz)."""
+    names = [Path(json.loads(Path(r).read_text())["folder"]).name for r in records]
+    return dict(zip(names, zip(records, masks, strict=True), strict=True))
+
+
 def targets(setups: dict[str, tuple[str, str]], simulation: dict) -> dict[str, DamBreakTarget]:
     """Every setup (name: (setup.json, masks.npz) of its import) as a target, simulated with ``simulation``'s grid,
     particles and elastic constants; its first frame ``min_offset`` (default 0) to ``max_offset`` s after the
-    release, its first ``fitted_frames`` (default all) fitted."""
+    release, its first ``fitted_frames`` fitted, or all but the last ``held_out_frames`` (default: all fitted)."""
     out = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:
             setup = Setup.from_record(json.load(f), np.load(masks)["masks"])
         scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
                                 simulation["particles_per_cell"])
+        fitted = simulation.get("fitted_frames", len(setup.masks) - simulation.get("held_out_frames", 0))
         out[name] = DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]),
-                                   simulation.get("min_offset", 0.0), simulation.get("fitted_frames"))
+                                   simulation.get("min_offset", 0.0), fitted)
     return out
 
 

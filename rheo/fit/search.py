@@ -137,7 +137,7 @@ def survey(evaluate: Evaluate, centre: np.ndarray, half_width: float | np.ndarra
     return points[order], values[order]
 
 
-def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float, evaluations: int,
+def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float | np.ndarray, evaluations: int,
                    phase: str, tolerance: float = 0.01,
                    box: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float]:
     """Nelder-Mead from ``start`` with an initial simplex of ``step`` (log units) along each axis, for at most

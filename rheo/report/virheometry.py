@@ -46,8 +46,11 @@ def overlay(observed: np.ndarray, simulated: np.ndarray) -> np.ndarray:
     return image
 
 
-def frames_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], frames=(0, 3, 7), margin: int = 15):
-    """Per setup (name: recorded masks, simulated silhouettes, IoU per frame) the chosen frames overlaid."""
+def frames_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], margin: int = 15):
+    """Per setup (name: recorded masks, simulated silhouettes, IoU per frame) the first, middle and last frames
+    overlaid."""
+    count = len(next(iter(rows.values()))[0])
+    frames = (0, (count - 1) // 2, count - 1)
     fig, axes = plt.subplots(len(rows), len(frames), figsize=(3.4 * len(frames), 2.4 * len(rows)), squeeze=False)
     for row, (name, (masks, simulated, iou)) in zip(axes, rows.items(), strict=True):
         ys, xs = np.nonzero(masks.any(axis=0) | simulated.any(axis=0))

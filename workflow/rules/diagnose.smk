@@ -1,19 +1,53 @@
-# diagnose: where simulation and recording still disagree, and which physics the model left out.
+# diagnose: where a dam-break fit still disagrees with its recordings, which effect the base model left out, the
+# refit with it, and the gain on frames held out of every fit.
 
 
-def not_implemented(stage):
-    raise NotImplementedError(f"stage {stage}: not implemented yet")
+def diagnose_params(fit_settings, simulation):
+    return {"settings": config["diagnose"], "fit_settings": fit_settings, "simulation": simulation}
 
 
-rule diagnose:
+rule virheometry_diagnose:
     input:
-        fit="results/{experiment}/fit/params.json",
-        recordings="results/{experiment}/recordings",
+        fit="results/virheometry/{material}/fit_bingham/params.json",
+        setups=lambda w: expand("results/virheometry/setups/{setup}/setup.json", setup=virheometry_setups(w.material)),
+        masks=lambda w: expand("results/virheometry/setups/{setup}/masks.npz", setup=virheometry_setups(w.material)),
+        rheometer=lambda w: config["virheometry"]["rheometer"].get(w.material, []),
     output:
-        "results/{experiment}/diagnose/diagnosis.json",
+        diagnosis="results/virheometry/{material}/diagnosis/diagnosis.json",
+        maps="results/virheometry/{material}/diagnosis/maps.png",
+        report="results/virheometry/{material}/diagnosis/report.html",
     log:
-        "logs/{experiment}/diagnose.log",
+        "logs/virheometry/{material}/diagnose.log",
     benchmark:
-        "benchmarks/{experiment}/diagnose.tsv"
-    run:
-        not_implemented("diagnose")
+        "benchmarks/virheometry/{material}/diagnose.tsv"
+    wildcard_constraints:
+        material=r"[A-Za-z0-9]+",
+    threads: 2
+    params:
+        **diagnose_params(virheometry_bingham_settings(), virheometry_held_out_simulation()),
+        title=lambda w: f"{w.material}: what the Bingham model leaves out",
+    script:
+        "../../stages/diagnose.py"
+
+
+rule concealed_diagnose:
+    input:
+        fit="results/concealed/{case}/fit/params.json",
+        setups=["results/concealed/{case}/recording/setup.json"],
+        masks=["results/concealed/{case}/recording/masks.npz"],
+    output:
+        diagnosis="results/concealed/{case}/diagnosis/diagnosis.json",
+        maps="results/concealed/{case}/diagnosis/maps.png",
+        report="results/concealed/{case}/diagnosis/report.html",
+    log:
+        "logs/concealed/{case}/diagnose.log",
+    benchmark:
+        "benchmarks/concealed/{case}/diagnose.tsv"
+    wildcard_constraints:
+        case=r"[A-Za-z0-9_.]+",
+    threads: 2
+    params:
+        **diagnose_params(concealed_fit_settings(), concealed_simulation()),
+        title=lambda w: f"concealed case {w.case}: what the Bingham model leaves out",
+    script:
+        "../../stages/diagnose.py"

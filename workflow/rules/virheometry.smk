@@ -38,14 +38,24 @@ def virheometry_setups(material: str) -> list[str]:
 
 
 def fitted_setups(material: str, fit: str) -> list[str]:
-    """``fit``: all the material's setups (fit) or one of them (fit_setup<k>)."""
+    """``fit``: all the material's setups (fit, or fit_bingham at n = 1) or one of them (fit_setup<k>)."""
     setups = virheometry_setups(material)
-    if fit == "fit":
+    if fit in ("fit", "fit_bingham"):
         return setups
     chosen = [s for s in setups if s.rsplit("_", 1)[1] == fit.removeprefix("fit_setup")]
     if not chosen:
         raise ValueError(f"{material}: no setup {fit.removeprefix('fit_setup')} among {setups}")
     return chosen
+
+
+def virheometry_bingham_settings() -> dict:
+    """The Bingham model's fit (n = 1), where a diagnosis starts."""
+    return {**config["virheometry"]["fit"], "flow_index": 1.0}
+
+
+def virheometry_held_out_simulation() -> dict:
+    """The simulation of fits that hold out the recordings' last frames."""
+    return {**config["virheometry"]["simulation"], "held_out_frames": config["diagnose"]["held_out_frames"]}
 
 
 rule virheometry_fit:
@@ -62,11 +72,12 @@ rule virheometry_fit:
         "benchmarks/virheometry/{material}/{fit}.tsv"
     wildcard_constraints:
         material=r"[A-Za-z0-9]+",
-        fit=r"fit|fit_setup[0-9]+",
+        fit=r"fit|fit_bingham|fit_setup[0-9]+",
     threads: 2
     params:
-        simulation=config["virheometry"]["simulation"],
-        settings=config["virheometry"]["fit"],
+        simulation=lambda w: virheometry_held_out_simulation() if w.fit == "fit_bingham"
+        else config["virheometry"]["simulation"],
+        settings=lambda w: virheometry_bingham_settings() if w.fit == "fit_bingham" else config["virheometry"]["fit"],
     script:
         "../../stages/virheometry_fit.py"
 

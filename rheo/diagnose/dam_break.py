@@ -1,0 +1,170 @@
+"""The diagnosis of a dam-break fit: where the best fit still disagrees with the recordings, which candidate effect
+explains it, the refit with that effect, and the gain on the frames held out of every fit.
+
+Each candidate's refit starts from the base fit's law and a modest effect and runs a short Nelder-Mead search; the
+candidates are ranked by the information criterion (``rheo.diagnose.selection``), and the winner, if any, is
+refitted with more evaluations. Every evaluation is stored, so an interrupted diagnosis resumes.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import partial
+
+import numpy as np
+
+from rheo.diagnose.candidates import CANDIDATES, Candidate, Law
+from rheo.diagnose.residuals import Location, locate
+from rheo.diagnose.selection import Refit, choose, refit_with, refits
+from rheo.experiments.virheometry import Setup
+from rheo.fit.dam_break import Comparison, compare_law, targets
+from rheo.fit.parallel import Evaluator
+from rheo.fit.search import EvaluationLog, simplex_search
+
+logger = logging.getLogger(__name__)
+
+
+def applicable(candidate: Candidate, setups: list[Setup], law: Law) -> bool:
+    """Whether the effect can act: walls adhere only where some wall lets the material slide; a fitted flow index
+    leaves no shear thinning to add."""
+    if candidate.name == "wall_adhesion":
+        return any(w.contact != "sticky" for s in setups for w in s.walls)
+    if candidate.name == "shear_thinning":
+        return law.n is not None
+    return True
+
+
+def objectives(setups: dict[str, tuple[str, str]], simulation: dict, laws: dict[str, Law]) -> dict[str, Callable]:
+    """Comparisons by "law|setup", every setup's target built once; for ``Evaluator``."""
+    built = targets(setups, simulation)
+    return {f"{law_name}|{name}": partial(compare_law, target, law)
+            for law_name, law in laws.items() for name, target in built.items()}
+
+
+def summary(results: list[Comparison]) -> dict:
+    """One evaluation over the setups, JSON-ready: mean losses and the fitted frames' distances."""
+    held = [r.held_out_loss for r in results if not np.isnan(r.held_out_loss)]
+    return {"loss": float(np.mean([r.loss for r in results])),
+            "held_out_loss": float(np.mean(held)) if held else None,
+            "distances": [float(d) for r in results for d in r.fitted_distances]}
+
+
+@dataclass
+class Diagnosis:
+    """The base fit, every candidate's short refit, the chosen effect's longer refit (None: nothing missing), the
+    comparisons before and after by setup, and where the base fit's mismatch lies."""
+
+    law: Law
+    base: Refit
+    candidates: list[Refit]
+    chosen: Refit | None
+    before: dict[str, Comparison]
+    after: dict[str, Comparison]
+    location: dict[str, Location]
+    evidence: float
+
+    def values(self, refit: Refit) -> dict[str, float]:
+        """The law and the effect of a refit, in their units."""
+        candidate = CANDIDATES.get(refit.name)
+        law, _ = Law(self.law.n, candidate).unpack(refit.x)
+        out = {"tau_y_Pa": law["tau_y"], "K_Pa_s_n": law["K"], "n": law["n"]}
+        if candidate is not None:
+            out[candidate.name] = candidate.value(float(refit.x[-1]))
+        return out
+
+    def record(self) -> dict:
+        """diagnosis.json's content."""
+
+        def fit(refit: Refit) -> dict:
+            return {"loss_px": refit.loss, "held_out_loss_px": refit.held_out_loss, "criterion": refit.criterion,
+                    "parameters": refit.parameters, "values": self.values(refit)}
+
+        ranked = sorted(self.candidates, key=lambda r: r.criterion)
+        chosen = self.chosen
+        return {
+            "base_model": "Bingham (n = 1)" if self.law.n == 1.0 else
+                          "Herschel-Bulkley" if self.law.n is None else f"Herschel-Bulkley, n = {self.law.n}",
+            "criterion": "BIC of per-frame boundary distances, N log(SSE/N) + k log N, over the fitted frames",
+            "evidence": self.evidence,
+            "mismatch": {name: {"words": loc.words(), "by_region": loc.by_region(),
+                                "by_frame_px": loc.by_frame().tolist()} for name, loc in self.location.items()},
+            "base": fit(self.base),
+            "candidates": [{"effect": r.name, "title": CANDIDATES[r.name].title, "decoy": CANDIDATES[r.name].decoy,
+                            "delta_criterion": r.criterion - self.base.criterion, **fit(r)} for r in ranked],
+            "chosen": None if chosen is None else chosen.name,
+            "verdict": "nothing missing" if chosen is None else CANDIDATES[chosen.name].title,
+            "magnitude": None if chosen is None else self.values(chosen)[chosen.name],
+            "refit": None if chosen is None else fit(chosen),
+            "loss_before_after_px": {"fitted": [self.base.loss, (chosen or self.base).loss],
+                                     "held_out": [self.base.held_out_loss, (chosen or self.base).held_out_loss]},
+        }
+
+
+def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings: dict, settings: dict,
+             base_values: dict[str, float], log: EvaluationLog, workers: int,
+             on_evaluation: Callable[[str, np.ndarray, float], None] = lambda *_: None) -> Diagnosis:
+    """Diagnose the fit ``base_values`` (tau_y, K, n) of the ``setups`` (name: (setup.json, masks.npz)), fitted with
+    ``fit_settings`` (its boxes, its fixed flow index) on ``simulation``'s grid. ``settings``: ``candidates`` (names),
+    ``evaluations`` (per short refit), ``refit_evaluations``, ``law_step`` (initial simplex of the law, log units),
+    ``evidence`` (least drop of the criterion)."""
+    records = {}
+    for name, (record, masks) in setups.items():
+        with open(record) as f:
+            records[name] = Setup.from_record(json.load(f), np.load(masks)["masks"])
+    law = Law(n=fit_settings.get("flow_index"))
+    x_base = np.log([base_values[n] for n in law.names])
+    law_box = (np.log([fit_settings[n][0] for n in law.names]), np.log([fit_settings[n][1] for n in law.names]))
+    candidates = [CANDIDATES[c] for c in settings["candidates"]
+                  if applicable(CANDIDATES[c], list(records.values()), law)]
+    skipped = sorted(set(settings["candidates"]) - {c.name for c in candidates})
+    if skipped:
+        logger.info("not applicable here: %s", ", ".join(skipped))
+    laws = {"base": law, **{c.name: Law(law.n, c) for c in candidates}}
+    with Evaluator(partial(objectives, setups, simulation, laws), workers) as evaluator:
+
+        def evaluate(law_name: str) -> Callable[[np.ndarray, str], float]:
+            def joint(points: list[np.ndarray]) -> list[dict]:
+                results = evaluator.map([(f"{law_name}|{s}", x) for x in points for s in setups])
+                out = [summary(results[i * len(setups):(i + 1) * len(setups)]) for i in range(len(points))]
+                for x, value in zip(points, out, strict=True):
+                    on_evaluation(law_name, x, value["loss"])
+                return out
+
+            return lambda x, phase: log.evaluate_many(joint, [x], phase)[0]
+
+        def refit(name: str, x: np.ndarray, phase: str) -> Refit:
+            record = log.record(phase, x)
+            return Refit(name, np.asarray(x), record["loss"], record["held_out_loss"],
+                         np.asarray(record["distances"]), len(x))
+
+        evaluate("base")(x_base, "base")
+        base = refit("base", x_base, "base")
+        side_by_side = max(1, workers // len(setups))
+        found = refits(candidates, lambda c: refit_with(c, evaluate(c.name), log.record, x_base, law_box,
+                                                        settings["law_step"], settings["evaluations"]),
+                       side_by_side)
+        for r in sorted(found, key=lambda r: r.criterion):
+            logger.info("%s: loss %.4g px (base %.4g), criterion %+.2f", r.name, r.loss, base.loss,
+                        r.criterion - base.criterion)
+        chosen = choose(base, found, settings["evidence"])
+        if chosen is not None:
+            candidate = CANDIDATES[chosen.name]
+            low, high = candidate.bounds
+            box = (np.r_[law_box[0], low], np.r_[law_box[1], high])
+            steps = np.r_[np.full(len(x_base), 0.5 * settings["law_step"]), 0.5 * candidate.step]
+            x, _ = simplex_search(evaluate(chosen.name), chosen.x, steps, settings["refit_evaluations"],
+                                  f"final {chosen.name}", box=box)
+            final = refit(chosen.name, x, f"final {chosen.name}")
+            chosen = final if final.loss <= chosen.loss else chosen
+        before = dict(zip(setups, evaluator.map([(f"base|{s}", x_base) for s in setups]), strict=True))
+        after = before if chosen is None else dict(zip(setups, evaluator.map(
+            [(f"{chosen.name}|{s}", chosen.x) for s in setups]), strict=True))
+    location = {}
+    for name, comparison in before.items():
+        setup = records[name]
+        labels = [str(k + 1) for k in range(len(setup.masks))]
+        location[name] = locate(setup, list(comparison.silhouettes), setup.masks, labels)
+    return Diagnosis(law, base, found, chosen, before, after, location, settings["evidence"])

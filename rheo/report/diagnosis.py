@@ -1,0 +1,95 @@
+"""The "What the model leaves out" section: residual maps before and after the refit, the candidates' table, the
+verdict and its gain on held-out frames; and the concealed cases' confusion table."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from rheo.report.html import figure_tag, image_tag, table_tag
+from rheo.report.virheometry import overlay
+
+
+def shown_frames(count: int, fitted: int) -> list[int]:
+    """Four frames to show: the first, two fitted ones and the last (held out when any are)."""
+    return sorted({0, fitted // 2, max(fitted - 1, 0), count - 1})
+
+
+def maps_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray | None, int]], margin: int = 15):
+    """Per setup (name: recorded masks, the base fit's silhouettes, the refit's or None, fitted frames) residual
+    maps of chosen frames: a row for the base fit, a row for the refit."""
+    lines = [(name, label, masks, simulated, fitted)
+             for name, (masks, before, after, fitted) in rows.items()
+             for label, simulated in (("base fit", before), ("refit", after)) if simulated is not None]
+    frames = shown_frames(len(next(iter(rows.values()))[0]), next(iter(rows.values()))[3])
+    fig, axes = plt.subplots(len(lines), len(frames), figsize=(3.2 * len(frames), 2.3 * len(lines)), squeeze=False)
+    for row, (name, label, masks, simulated, fitted) in zip(axes, lines, strict=True):
+        ys, xs = np.nonzero(masks.any(axis=0) | simulated.any(axis=0))
+        for ax, k in zip(row, frames, strict=True):
+            ax.imshow(overlay(masks[k], simulated[k]))
+            ax.set_xlim(xs.min() - margin, xs.max() + margin)
+            ax.set_ylim(ys.max() + margin, ys.min() - margin)
+            held = "" if k < fitted else " (held out)"
+            ax.set_title(f"{name}, {label}\nframe {k + 1}{held}", fontsize=8)
+            ax.axis("off")
+    fig.suptitle("grey: both; red: recorded only; blue: simulated only", fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
+def _value(v) -> str:
+    return "-" if v is None else f"{v:.4g}"
+
+
+def section(record: dict, maps: bytes | None = None, extra: str = "") -> str:
+    """HTML of the diagnosis ``record`` (diagnosis.json)."""
+    chosen = record["chosen"]
+    before, after = record["loss_before_after_px"]["fitted"], record["loss_before_after_px"]["held_out"]
+    gain = ("" if chosen is None or after[0] in (None, 0) else
+            f" Held-out loss {_value(after[0])} px before, {_value(after[1])} px after: "
+            f"{100 * (1 - after[1] / after[0]):+.0f} % change.")
+    verdict = (f"<p><b>Verdict: {record['verdict']}</b>"
+               + ("" if chosen is None else f", fitted magnitude {_value(record['magnitude'])}") + ". "
+               f"Fitted frames' loss {_value(before[0])} px before, {_value(before[1])} px after.{gain}</p>")
+    mismatch = "".join(f"<p>{name}: {m['words']}</p>" for name, m in record["mismatch"].items())
+    rows = [["base model", "0", _value(record["base"]["loss_px"]), _value(record["base"]["held_out_loss_px"]), "-",
+             ", ".join(f"{k} {_value(v)}" for k, v in record["base"]["values"].items())]]
+    rows += [[c["title"], f"{c['delta_criterion']:+.2f}", _value(c["loss_px"]), _value(c["held_out_loss_px"]),
+              "decoy" if c["decoy"] else "", ", ".join(f"{k} {_value(v)}" for k, v in c["values"].items())]
+             for c in record["candidates"]]
+    table = table_tag(["model", "change of the criterion", "fitted loss (px)", "held-out loss (px)", "", "values"],
+                      rows)
+    criterion = (f"<p>Ranked by {record['criterion']}; an effect is named when it lowers the criterion by more "
+                 f"than {record['evidence']:g}.</p>")
+    figure = "" if maps is None else image_tag(maps, "png", "residual maps before and after the refit")
+    return verdict + mismatch + criterion + table + figure + extra
+
+
+def confusion_figure(truths: list[str], named: list[str], labels: list[str]):
+    """Counts of (true effect, named effect)."""
+    index = {label: i for i, label in enumerate(labels)}
+    counts = np.zeros((len(labels), len(labels)), int)
+    for t, n in zip(truths, named, strict=True):
+        counts[index[t], index[n]] += 1
+    fig, ax = plt.subplots(figsize=(1.0 + 0.6 * len(labels), 0.8 + 0.5 * len(labels)))
+    ax.imshow(counts, cmap="Blues")
+    for i in range(len(labels)):
+        for j in range(len(labels)):
+            if counts[i, j]:
+                ax.text(j, i, str(counts[i, j]), ha="center", va="center", fontsize=9)
+    ax.set_xticks(range(len(labels)), labels, rotation=45, ha="right", fontsize=8)
+    ax.set_yticks(range(len(labels)), labels, fontsize=8)
+    ax.set_xlabel("named by the diagnosis")
+    ax.set_ylabel("concealed in the recording")
+    fig.tight_layout()
+    return fig
+
+
+def confusion_section(truths: list[str], named: list[str], labels: list[str]) -> str:
+    counts = [[str(sum(1 for t, n in zip(truths, named, strict=True) if t == row and n == col)) for col in labels]
+              for row in labels]
+    return (table_tag(["concealed \\ named", *labels], [[row, *c] for row, c in zip(labels, counts, strict=True)])
+            + figure_tag(confusion_figure(truths, named, labels), "confusion table"))

@@ -1,0 +1,95 @@
+# Concealed-effect dam breaks: the virtual lab films a Bingham material with one effect the base model lacks (or
+# none); the fit and the diagnosis are not told which, and the summary scores what the diagnosis named.
+
+
+def concealed_cases() -> list[str]:
+    return sorted(p.stem for p in Path(config["concealed"]["cases"]).glob("*.yaml"))
+
+
+def concealed_case(name: str) -> dict:
+    """The case file, validated against its schema."""
+    path = Path(config["concealed"]["cases"]) / f"{name}.yaml"
+    if not path.is_file():
+        raise ValueError(f"{path}: no such concealed case")
+    try:
+        case = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as err:
+        raise ValueError(f"{path}: not valid YAML ({err})") from None
+    validate(case, str(Path(workflow.basedir) / "workflow/schemas/concealed_case.schema.yaml"))
+    if case["name"] != name:
+        raise ValueError(f"{path}: name {case['name']!r} differs from the file name {name!r}")
+    if case["effect"] != "none" and "magnitude" not in case:
+        raise ValueError(f"{path}: effect {case['effect']!r} needs a magnitude")
+    return case
+
+
+def concealed_simulation() -> dict:
+    """The fit's simulation: the real dam breaks' grid and elastic constants, the first frame one frame interval
+    after the release (the lab knows it), the first frames fitted."""
+    first = 1.0 / config["concealed"]["scene"]["fps"]
+    return {**config["virheometry"]["simulation"], "min_offset": first, "max_offset": first,
+            "fitted_frames": config["concealed"]["fitted_frames"]}
+
+
+def concealed_fit_settings() -> dict:
+    return {**config["concealed"]["fit"], "flow_index": 1.0}
+
+
+rule concealed_synthesize:
+    input:
+        lambda w: str(Path(config["concealed"]["cases"]) / f"{w.case}.yaml"),
+    output:
+        setup="results/concealed/{case}/recording/setup.json",
+        masks="results/concealed/{case}/recording/masks.npz",
+        truth="results/concealed/{case}/truth.json",
+    log:
+        "logs/concealed/{case}/synthesize.log",
+    benchmark:
+        "benchmarks/concealed/{case}/synthesize.tsv"
+    wildcard_constraints:
+        case=r"[A-Za-z0-9_.]+",
+    params:
+        case=lambda w: concealed_case(w.case),
+        scene=config["concealed"]["scene"],
+        lab=config["concealed"]["lab"],
+        truth=config["concealed"]["truth"],
+        elastic=[config["virheometry"]["simulation"]["mu"], config["virheometry"]["simulation"]["lam"]],
+    script:
+        "../../stages/concealed_synthesize.py"
+
+
+rule concealed_fit:
+    input:
+        setups=["results/concealed/{case}/recording/setup.json"],
+        masks=["results/concealed/{case}/recording/masks.npz"],
+    output:
+        params="results/concealed/{case}/fit/params.json",
+        history="results/concealed/{case}/fit/history.csv",
+        frames="results/concealed/{case}/fit/frames.png",
+    log:
+        "logs/concealed/{case}/fit.log",
+    benchmark:
+        "benchmarks/concealed/{case}/fit.tsv"
+    wildcard_constraints:
+        case=r"[A-Za-z0-9_.]+",
+    threads: 2
+    params:
+        simulation=concealed_simulation(),
+        settings=concealed_fit_settings(),
+    script:
+        "../../stages/virheometry_fit.py"
+
+
+rule concealed_summary:
+    input:
+        diagnoses=expand("results/concealed/{case}/diagnosis/diagnosis.json", case=concealed_cases()),
+        truths=expand("results/concealed/{case}/truth.json", case=concealed_cases()),
+        fits=expand("results/concealed/{case}/fit/params.json", case=concealed_cases()),
+    output:
+        "results/concealed/summary.html",
+    log:
+        "logs/concealed/summary.log",
+    params:
+        cases=concealed_cases(),
+    script:
+        "../../stages/concealed_summary.py"
