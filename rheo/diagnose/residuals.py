@@ -79,9 +79,7 @@ class Location:
         if self.total.sum() == 0:
             return "The simulation matches every frame."
         per_frame = self.by_frame()
-        order = np.argsort(per_frame)[::-1]
-        # the fewest frames that carry half the mismatch
-        heavy = sorted(order[:int(np.searchsorted(np.cumsum(per_frame[order]), 0.5 * per_frame.sum())) + 1])
+        heavy = list(np.flatnonzero(per_frame >= 0.5 * per_frame.max()))  # frames with at least half the worst's
         third = len(per_frame) / 3
         when = ("early" if max(heavy) < third else "late" if min(heavy) >= 2 * third
                 else "in the middle" if min(heavy) >= third and max(heavy) < 2 * third else "throughout")
@@ -97,7 +95,7 @@ class Location:
                "inside the container": ("the simulation leaves more material in the container",
                                         "the simulation drains the container more")}[where]
         direction = way[0] if extra >= missing else way[1]
-        return (f"Half the mismatch lies in frames {frames} ({when}); {100 * shares[where]:.0f} % of it at the "
+        return (f"The mismatch is largest in frames {frames} ({when}); {100 * shares[where]:.0f} % of it at the "
                 f"{where}, where {direction} ({100 * max(extra, missing) / max(extra + missing, 1):.0f} % "
                 f"{'extra' if extra >= missing else 'missing'} material).")
 

@@ -63,25 +63,28 @@ class Comparison:
     outflow_iou: np.ndarray
     shear_rates: np.ndarray  # 1/s, of the moving particles over the compared frames
     silhouettes: np.ndarray  # (frames, H, W) bool: the simulated silhouettes compared, container included
-    fitted: int  # the first this many frames are fitted, the rest held out
+    fitted: np.ndarray  # (frames,) bool: fitted, or held out
 
     @property
     def fitted_distances(self) -> np.ndarray:
-        return self.distances[:self.fitted]
+        return self.distances[self.fitted]
 
 
 class DamBreakTarget:
     """One setup's silhouettes and its simulated scene; the first frame comes ``min_offset`` to ``max_offset``
-    seconds after the release; the first ``fitted`` frames (all by default) make the loss, the rest are held out."""
+    seconds after the release; every frame makes the loss but every ``held_out_every``-th (frames k, 2k, ...; none
+    by default), held out."""
 
     def __init__(self, scene: DamBreakScene, max_offset: float, elastic: tuple[float, float],
-                 min_offset: float = 0.0, fitted: int | None = None) -> None:
+                 min_offset: float = 0.0, held_out_every: int | None = None) -> None:
         self.scene = scene
         self.setup = scene.setup
         self.masks = self.setup.masks
-        self.fitted = len(self.masks) if fitted is None else fitted
-        if not 1 <= self.fitted <= len(self.masks):
-            raise ValueError(f"{self.setup.folder}: {fitted} fitted frames of {len(self.masks)}")
+        self.fitted = np.ones(len(self.masks), bool)
+        if held_out_every is not None:
+            if held_out_every < 2:
+                raise ValueError(f"held_out_every = {held_out_every} leaves no frame to fit: it must be >= 2")
+            self.fitted[held_out_every - 1::held_out_every] = False
         self.to_mask = [distance_to(m) for m in self.masks]
         # the recorded container is a pixel or two wider than the cuboid's outline (its walls, the binarisation):
         # what every frame shows within CONTAINER_RIM px of the outline counts as container
@@ -112,7 +115,7 @@ class DamBreakTarget:
         starts = range(self.first_offset, self.offsets + 1)
         table = np.array([[boundary_distance(simulated(start + k * self.frame_steps), self.masks[k], self.to_mask[k])
                            for k in range(frames)] for start in starts])
-        best_row = int(np.argmin(table[:, :self.fitted].mean(axis=1)))
+        best_row = int(np.argmin(table[:, self.fitted].mean(axis=1)))
         best, distances = starts[best_row], table[best_row]
         chosen = [simulated(best + k * self.frame_steps) for k in range(frames)]
         outside = ~self.container
@@ -120,8 +123,8 @@ class DamBreakTarget:
         outflow = np.array([iou(s & outside, m & outside) for s, m in zip(chosen, self.masks, strict=True)])
         steps_compared = best + self.frame_steps * np.arange(frames)
         rates = shear_rates(trajectory.C.numpy()[steps_compared]).ravel()
-        held_out = distances[self.fitted:]
-        return Comparison(float(distances[:self.fitted].mean()), float(held_out.mean()) if len(held_out) else np.nan,
+        held_out = distances[~self.fitted]
+        return Comparison(float(distances[self.fitted].mean()), float(held_out.mean()) if len(held_out) else np.nan,
                           best * OFFSET_STEP, distances, overlap, outflow, rates[rates > MOVING_RATE], np.stack(chosen),
                           self.fitted)
 
@@ -139,16 +142,15 @@ def setup_files(records: list[str], masks: list[str]) -> dict[str, tuple[str, st
 def targets(setups: dict[str, tuple[str, str]], simulation: dict) -> dict[str, DamBreakTarget]:
     """Every setup (name: (setup.json, masks.npz) of its import) as a target, simulated with ``simulation``'s grid,
     particles and elastic constants; its first frame ``min_offset`` (default 0) to ``max_offset`` s after the
-    release, its first ``fitted_frames`` fitted, or all but the last ``held_out_frames`` (default: all fitted)."""
+    release, every ``held_out_every``-th frame (if given) held out of the loss."""
     out = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:
             setup = Setup.from_record(json.load(f), np.load(masks)["masks"])
         scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
                                 simulation["particles_per_cell"])
-        fitted = simulation.get("fitted_frames", len(setup.masks) - simulation.get("held_out_frames", 0))
         out[name] = DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]),
-                                   simulation.get("min_offset", 0.0), fitted)
+                                   simulation.get("min_offset", 0.0), simulation.get("held_out_every"))
     return out
 
 

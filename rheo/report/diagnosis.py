@@ -13,18 +13,20 @@ from rheo.report.html import figure_tag, image_tag, table_tag
 from rheo.report.virheometry import overlay
 
 
-def shown_frames(count: int, fitted: int) -> list[int]:
-    """Four frames to show: the first, two fitted ones and the last (held out when any are)."""
-    return sorted({0, fitted // 2, max(fitted - 1, 0), count - 1})
+def shown_frames(fitted: np.ndarray) -> list[int]:
+    """Up to four frames to show: the first, the middle, the last, and the first held out if any is."""
+    count = len(fitted)
+    held = np.flatnonzero(~fitted)
+    return sorted({0, (count - 1) // 2, count - 1, *held[:1].tolist()})
 
 
-def maps_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray | None, int]], margin: int = 15):
-    """Per setup (name: recorded masks, the base fit's silhouettes, the refit's or None, fitted frames) residual
-    maps of chosen frames: a row for the base fit, a row for the refit."""
+def maps_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]], margin: int = 15):
+    """Per setup (name: recorded masks, the base fit's silhouettes, the refit's or None, which frames are fitted)
+    residual maps of chosen frames: a row for the base fit, a row for the refit."""
     lines = [(name, label, masks, simulated, fitted)
              for name, (masks, before, after, fitted) in rows.items()
              for label, simulated in (("base fit", before), ("refit", after)) if simulated is not None]
-    frames = shown_frames(len(next(iter(rows.values()))[0]), next(iter(rows.values()))[3])
+    frames = shown_frames(next(iter(rows.values()))[3])
     fig, axes = plt.subplots(len(lines), len(frames), figsize=(3.2 * len(frames), 2.3 * len(lines)), squeeze=False)
     for row, (name, label, masks, simulated, fitted) in zip(axes, lines, strict=True):
         ys, xs = np.nonzero(masks.any(axis=0) | simulated.any(axis=0))
@@ -32,7 +34,7 @@ def maps_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray | None,
             ax.imshow(overlay(masks[k], simulated[k]))
             ax.set_xlim(xs.min() - margin, xs.max() + margin)
             ax.set_ylim(ys.max() + margin, ys.min() - margin)
-            held = "" if k < fitted else " (held out)"
+            held = "" if fitted[k] else " (held out)"
             ax.set_title(f"{name}, {label}\nframe {k + 1}{held}", fontsize=8)
             ax.axis("off")
     fig.suptitle("grey: both; red: recorded only; blue: simulated only", fontsize=9)

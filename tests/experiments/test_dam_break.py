@@ -7,8 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rheo.experiments.dam_break import FACE_MARGIN, dam_break_scene, floor_footprint, runout
-from rheo.physics import HerschelBulkley, kernels
+from rheo.experiments.dam_break import FACE_MARGIN, DamBreakError, Effects, dam_break_scene, floor_footprint, runout
+from rheo.physics import HerschelBulkley, OptionalPhysics, kernels
 from tests.conftest import DEPTH, HEIGHT, WIDTH
 
 
@@ -80,3 +80,37 @@ def test_a_weak_material_leaves_through_the_gate_and_a_strong_one_stays(channel,
     mirror = trajectory.x[:, half:].clone()
     mirror[..., 2] = DEPTH - mirror[..., 2]
     assert (mirror - trajectory.x[:, :half]).abs().max().item() < 1e-6
+
+
+def _fronts(scene, effects=None, duration=0.2):
+    material = HerschelBulkley(tau_y=5.0, K=0.5, n=1.0, mu=2e4, lam=2e4)
+    trajectory = scene.rollout(material, duration, duration / 4, effects)
+    return trajectory.x[:, :, 0].max(dim=1).values.numpy(), trajectory
+
+
+def test_effects_at_their_null_values_are_the_base_dam_break_and_each_moves_the_flow(channel):
+    scene = dam_break_scene(channel((0.0, 0.05, 0.0, 0.04)), cells_per_height=6)
+    base, trajectory = _fronts(scene)
+    _, again = _fronts(scene, Effects(physics=OptionalPhysics()))
+    assert np.array_equal(trajectory.x.numpy(), again.x.numpy())
+    # a gate clearing the material's height in 0.15 s holds the front back; a slippery floor lets it run further
+    gated, _ = _fronts(scene, Effects(gate_lift_time=0.15))
+    assert gated[1] < base[1] - 0.002 and np.all(gated <= base + 1e-3)
+    sliding, _ = _fronts(scene, Effects(floor_friction=0.1))
+    assert sliding[-1] > base[-1] + 0.002
+    # gravity tilted down the channel speeds the front; a heavier material flows further against its yield stress
+    tilted, _ = _fronts(scene, Effects(gravity_tilt=0.2))
+    heavier, _ = _fronts(scene, Effects(density_factor=2.0))
+    assert tilted[-1] > base[-1] and heavier[-1] > base[-1]
+    with pytest.raises(DamBreakError, match="gate lift time"):
+        Effects(gate_lift_time=-1.0)
+
+
+def test_the_gate_stands_on_the_cuboids_front_face_across_the_channel(channel):
+    scene = dam_break_scene(channel((0.0, 0.05, 0.0, 0.04)), cells_per_height=6)
+    gate = scene.colliders(Effects(gate_lift_time=0.1))[-1]
+    low = np.array(gate.center) - gate.half_extents
+    high = np.array(gate.center) + gate.half_extents
+    assert low[0] == pytest.approx(WIDTH - FACE_MARGIN * scene.dx) and low[1] < 0 < HEIGHT < high[1]
+    assert low[2] < 0 and high[2] > DEPTH and gate.contact == "slip"
+    assert gate.velocity == pytest.approx((0.0, HEIGHT / 0.1, 0.0))

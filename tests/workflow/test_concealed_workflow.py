@@ -11,10 +11,11 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     (cases / "sliding.yaml").write_text("name: sliding\neffect: floor_friction\nmagnitude: 0.3\n")
     (workflow.root / "quick.yaml").write_text(
         "virheometry:\n  simulation: {cells_per_height: 4, cells_across: 4}\n"
-        "concealed:\n  cases: cases\n  scene: {frames: 4}\n  fitted_frames: 3\n"
+        "concealed:\n  cases: cases\n  scene: {frames: 4}\n"
         "  lab: {cells_per_height: 5, cells_across: 6}\n"
         "  fit: {samples: 2, evaluations: 2, starts: 1}\n"
-        "diagnose: {candidates: [floor_friction, gravity_tilt], evaluations: 3, refit_evaluations: 2}\n")
+        "diagnose: {candidates: [floor_friction, gravity_tilt], evaluations: 3, refit_evaluations: 2,\n"
+        "           held_out_every: 4}\n")
     run = workflow.run("results/concealed/summary.html", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
     result = workflow.root / "results/concealed"

@@ -25,10 +25,10 @@ def concealed_case(name: str) -> dict:
 
 def concealed_simulation() -> dict:
     """The fit's simulation: the real dam breaks' grid and elastic constants, the first frame one frame interval
-    after the release (the lab knows it), the first frames fitted."""
+    after the release (the lab knows it), every few frames held out."""
     first = 1.0 / config["concealed"]["scene"]["fps"]
     return {**config["virheometry"]["simulation"], "min_offset": first, "max_offset": first,
-            "fitted_frames": config["concealed"]["fitted_frames"]}
+            "held_out_every": config["diagnose"]["held_out_every"]}
 
 
 def concealed_fit_settings() -> dict:

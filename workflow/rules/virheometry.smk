@@ -54,8 +54,8 @@ def virheometry_bingham_settings() -> dict:
 
 
 def virheometry_held_out_simulation() -> dict:
-    """The simulation of fits that hold out the recordings' last frames."""
-    return {**config["virheometry"]["simulation"], "held_out_frames": config["diagnose"]["held_out_frames"]}
+    """The simulation of fits that hold out every few frames of the recordings."""
+    return {**config["virheometry"]["simulation"], "held_out_every": config["diagnose"]["held_out_every"]}
 
 
 rule virheometry_fit:
