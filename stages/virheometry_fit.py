@@ -27,9 +27,9 @@ started = time.time()
 settings, simulation = smk.params.settings, smk.params.simulation
 setups = setup_files(smk.input.setups, smk.input.masks)
 law = Law(n=settings.get("flow_index"))
-NAMES = law.names
-low = np.log([settings[n][0] for n in NAMES])
-high = np.log([settings[n][1] for n in NAMES])
+names = law.names
+low = np.log([settings[n][0] for n in names])
+high = np.log([settings[n][1] for n in names])
 output = Path(smk.output.params)
 evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
                             inputs_key([settings, simulation], [*smk.input.setups, *smk.input.masks]),
@@ -38,7 +38,7 @@ bar = tqdm(desc=f"{output.parent.parent.name} {output.parent.name}", unit="evalu
 
 
 def describe(x: np.ndarray) -> str:
-    return ", ".join(f"{n} {v:.4g}" for n, v in zip(NAMES, np.exp(x), strict=True))
+    return ", ".join(f"{n} {v:.4g}" for n, v in zip(names, np.exp(x), strict=True))
 
 
 with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.threads) as evaluator:
@@ -62,23 +62,23 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
     losses = np.concatenate([evaluations.evaluate_many(joint, list(points[i:i + chunk]), "survey")
                              for i in range(0, len(points), chunk)])
     starts = points[np.argsort(losses, kind="stable")[:settings["starts"]]]
-    x, loss = multistart_search(evaluate, list(starts), start_step((high - low).min(), settings["samples"], len(NAMES)),
+    x, loss = multistart_search(evaluate, list(starts), start_step((high - low).min(), settings["samples"], len(names)),
                                 settings["step"], settings["evaluations"], (low, high), side_by_side=True)
-    evaluations.evaluate_many(joint, profile_points(x, range(len(NAMES)), settings["profile_step"]), "profile")
-    x, loss, intervals, evidence = profile_intervals(evaluate, x, range(len(NAMES)), NAMES, settings["profile_step"],
+    evaluations.evaluate_many(joint, profile_points(x, range(len(names)), settings["profile_step"]), "profile")
+    x, loss, intervals, evidence = profile_intervals(evaluate, x, range(len(names)), names, settings["profile_step"],
                                                      settings["tolerance"], (low, high))
     details = dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))
 bar.close()
 
 spread = tolerated([r["x"] for r in evaluations.records], [r["loss"] for r in evaluations.records],
                    settings["tolerance"])
-ranges = ", ".join(f"{n} {np.exp(lo):.3g}-{np.exp(hi):.3g}" for n, (lo, hi) in zip(NAMES, spread.ranges, strict=True))
+ranges = ", ".join(f"{n} {np.exp(lo):.3g}-{np.exp(hi):.3g}" for n, (lo, hi) in zip(names, spread.ranges, strict=True))
 if spread.ridge:
     log.warning("the recordings leave the law on a ridge: %d evaluated materials within the tolerance span %s%s",
                 spread.count, ranges, " (one setup only)" if len(setups) == 1 else "")
 else:
     log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
-intervals = spread.widen(intervals, NAMES)
+intervals = spread.widen(intervals, names)
 rates = np.concatenate([d.shear_rates for d in details.values()])
 band = np.percentile(rates, [5, 95]).tolist() if len(rates) else None
 params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined}
@@ -98,9 +98,9 @@ write_json_atomic(output, {
                                 "boundary_distance_px": d.distances.tolist(), "silhouette_iou": d.iou.tolist(),
                                 "outflow_iou": d.outflow_iou.tolist()} for name, d in details.items()},
     "within_tolerance": {"evaluations": spread.count, "ridge": spread.ridge, "laws": np.exp(spread.points).tolist(),
-                         **{RESULT_KEYS[n]: np.exp(r).tolist() for n, r in zip(NAMES, spread.ranges, strict=True)},
+                         **{RESULT_KEYS[n]: np.exp(r).tolist() for n, r in zip(names, spread.ranges, strict=True)},
                          "spread_direction_log": None if spread.direction is None
-                         else dict(zip(NAMES, spread.direction.tolist(), strict=True))},
+                         else dict(zip(names, spread.direction.tolist(), strict=True))},
     "shear_rate_band_per_s": band, "loss_px": loss, "evidence": evidence, "tolerance": settings["tolerance"],
     "elastic_constants_Pa": {"mu": simulation["mu"], "lam": simulation["lam"]},
     "runtime_s": evaluations.earlier_seconds + time.time() - started})
@@ -109,7 +109,7 @@ write_json_atomic(output, {
 def write_history(path: Path) -> None:
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(["phase", "evaluation", "loss_px", *NAMES])
+        writer.writerow(["phase", "evaluation", "loss_px", *names])
         for i, record in enumerate(evaluations.records):
             writer.writerow([record["phase"], i, record["loss"], *np.exp(record["x"]).tolist()])
 

@@ -56,7 +56,7 @@ class Comparison:
     outside the container."""
 
     loss: float
-    held_out_loss: float  # over the frames after the fitted ones (nan when every frame is fitted)
+    held_out_loss: float  # over the held-out frames (nan when every frame is fitted)
     offset: float
     distances: np.ndarray
     iou: np.ndarray
@@ -129,7 +129,6 @@ class DamBreakTarget:
                           self.fitted)
 
 
-NAMES = ("tau_y", "K", "n")  # the fitted parameters, searched as logarithms
 RESULT_KEYS = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}  # their keys in params.json
 
 
