@@ -3,8 +3,9 @@ frames) and in space (inside the container, the front, the contact line on the f
 plain words.
 
 The regions are drawn in the image: the container is the material's initial cuboid seen by the camera; outside it,
-the front is the far tenth of the material's reach along the channel, the contact line the band of a few pixels
-above the floor's near edge, and the free surface the rest.
+the front is the far tenth of the material's reach along the channel, the contact line the lower third (at least a
+few pixels) of each column of what the silhouettes show there (where the material meets the floor nearest the
+camera), and the free surface the rest.
 """
 
 from __future__ import annotations
@@ -16,21 +17,8 @@ import numpy as np
 from rheo.experiments.virheometry import Setup, container_silhouette
 
 REGIONS = ("inside the container", "front", "contact line", "free surface")
-CONTACT_BAND = 4  # px above the floor's near edge
+CONTACT_BAND = 4  # px: the least height of the contact line's band
 FRONT_SHARE = 0.1  # the far tenth of the reach along the channel
-
-
-def floor_edge_rows(setup: Setup) -> np.ndarray:
-    """For every image column, the row where the floor's near edge (z = depth, the channel's side nearer the
-    camera) projects (nan where it does not)."""
-    camera = setup.camera
-    xs = np.linspace(-0.5, 1.5, 2001)
-    points = np.stack([xs, np.zeros_like(xs), np.full_like(xs, setup.depth)], axis=1)
-    uv, depth = camera.project(points)
-    keep = depth > 0
-    order = np.argsort(uv[keep, 0])
-    columns = np.arange(camera.width)
-    return np.interp(columns, uv[keep, 0][order], uv[keep, 1][order], left=np.nan, right=np.nan)
 
 
 def region_masks(setup: Setup, silhouettes: list[np.ndarray]) -> dict[str, np.ndarray]:
@@ -46,8 +34,13 @@ def region_masks(setup: Setup, silhouettes: list[np.ndarray]) -> dict[str, np.nd
     reach_columns = np.flatnonzero(outside.any(axis=0))
     reach = reach_columns.max() if len(reach_columns) else gate
     front = columns >= reach - FRONT_SHARE * max(reach - gate, 1)
-    edge = floor_edge_rows(setup)[None, :]
-    contact = (rows >= edge - CONTACT_BAND) & (rows <= edge + CONTACT_BAND)
+    # per column, the lower third of what any silhouette shows outside the container (at least CONTACT_BAND px):
+    # where the material meets the floor nearest the camera
+    shown = outside.any(axis=0)
+    lowest = np.where(shown, height - 1 - np.argmax(outside[::-1], axis=0), -1)
+    highest = np.where(shown, np.argmax(outside, axis=0), height)
+    band = np.maximum(CONTACT_BAND, (lowest - highest) / 3)
+    contact = shown[None, :] & (rows >= (lowest - band)[None, :])
     regions = {"inside the container": container,
                "front": ~container & front,
                "contact line": ~container & ~front & contact}
@@ -83,7 +76,9 @@ class Location:
         third = len(per_frame) / 3
         when = ("early" if max(heavy) < third else "late" if min(heavy) >= 2 * third
                 else "in the middle" if min(heavy) >= third and max(heavy) < 2 * third else "throughout")
-        frames = ", ".join(self.frame_labels[k] for k in heavy)
+        runs = np.split(np.array(heavy), np.flatnonzero(np.diff(heavy) > 1) + 1)
+        frames = ", ".join(self.frame_labels[r[0]] if len(r) == 1 else
+                           f"{self.frame_labels[r[0]]}-{self.frame_labels[r[-1]]}" for r in runs)
         shares = self.by_region()
         where = max(shares, key=shares.get)
         k = REGIONS.index(where)

@@ -23,7 +23,7 @@ def test_a_simulated_front_that_lags_in_late_frames_is_named_so(channel):
     assert location.by_frame()[:4].sum() == 0 and location.by_frame()[4:].min() > 0
     assert max(location.by_region(), key=location.by_region().get) == "front"
     words = location.words()
-    assert "frames 5, 6 (late)" in words and "lags behind" in words and "missing" in words
+    assert "frames 5-6 (late)" in words and "lags behind" in words and "missing" in words
 
 
 def test_a_surface_that_stands_too_high_throughout(channel):
