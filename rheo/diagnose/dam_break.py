@@ -90,7 +90,7 @@ class Diagnosis:
             "criterion": "BIC of per-frame boundary distances, N log(SSE/N) + k log N, over the fitted frames",
             "evidence": self.evidence,
             "mismatch": {name: {"words": loc.words(), "by_region": loc.by_region(),
-                                "by_frame_px": loc.by_frame().tolist()} for name, loc in self.location.items()},
+                                "pixels_by_frame": loc.by_frame().tolist()} for name, loc in self.location.items()},
             "base": fit(self.base),
             "candidates": [{"effect": r.name, "title": CANDIDATES[r.name].title, "decoy": CANDIDATES[r.name].decoy,
                             "delta_criterion": r.criterion - self.base.criterion, **fit(r)} for r in ranked],
