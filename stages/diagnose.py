@@ -9,13 +9,14 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from rheo.diagnose.dam_break import diagnose
-from rheo.experiments.rheometer import log_rms_error, read_flow_curve
-from rheo.fit.dam_break import RESULT_KEYS, setup_files
+from rheo.experiments.rheometer import read_flow_curve
+from rheo.fit.dam_break import RESULT_KEYS, setup_files, shear_rate_band
 from rheo.fit.search import EvaluationLog
 from rheo.io import read_json, write_json_atomic, write_text_atomic
 from rheo.report.diagnosis import maps_figure, section
 from rheo.report.figures import save_figure
-from rheo.report.html import page, table_tag
+from rheo.report.html import page
+from rheo.report.virheometry import rheometer_comparison
 from rheo.stage import inputs_key, setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -48,22 +49,15 @@ for name, words in ((n, m["words"]) for n, m in record["mismatch"].items()):
 
 extra = ""
 curves = [read_flow_curve(p) for p in getattr(smk.input, "rheometer", [])]
-if curves:
-    rates = np.concatenate([c.shear_rates for c in result.before.values()])
-    band = tuple(np.percentile(rates, [5, 95]).tolist())
-    laws = {"base fit": result.values(result.base)}
-    if result.chosen is not None:
-        laws["refit"] = result.values(result.chosen)
-    rows, errors = [], {}
-    for curve in curves:
-        inside = curve.within(band)
-        errors[curve.name] = {label: log_rms_error(law["tau_y_Pa"], law["K_Pa_s_n"], law["n"], inside)
-                              for label, law in laws.items()}
-        rows.append([curve.name, str(len(inside.shear_rate)), *[f"{e:.3f}" for e in errors[curve.name].values()]])
-        log.info("%s: RMS log10 error %s over %.3g-%.3g 1/s", curve.name, errors[curve.name], *band)
-    record["flow_curve_rms_log10"] = {"band_per_s": list(band), "by_curve": errors}
-    extra = ("<h3>Flow curve against the rheometer</h3>"
-             + table_tag(["rheometer curve", "points in the band", *[f"RMS log10, {k}" for k in laws]], rows))
+band = shear_rate_band(list(result.before.values()))
+if curves and band is not None:
+    laws = {label: tuple(result.values(refit)[k] for k in RESULT_KEYS.values())
+            for label, refit in (("base fit", result.base), ("refit", result.chosen)) if refit is not None}
+    table, errors = rheometer_comparison(laws, curves, band)
+    for name, error in errors.items():
+        log.info("%s: RMS log10 error %s over %.3g-%.3g 1/s", name, error, *band)
+    record["flow_curve_rms_log10"] = {"band_per_s": band, "by_curve": errors}
+    extra = f"<h3>Flow curve against the rheometer</h3>{table}"
 
 frames = {name: (np.load(files[1])["masks"], result.before[name].silhouettes,
                  None if result.chosen is None else result.after[name].silhouettes, result.before[name].fitted)

@@ -12,7 +12,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from rheo.diagnose.candidates import Law
-from rheo.fit.dam_break import MOVING_RATE, RESULT_KEYS, comparisons, setup_files
+from rheo.fit.dam_break import MOVING_RATE, RESULT_KEYS, comparisons, setup_files, shear_rate_band
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, multistart_search, start_step, survey_points
 from rheo.fit.uncertainty import profile_intervals, profile_points, tolerated
@@ -79,8 +79,7 @@ if spread.ridge:
 else:
     log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
 intervals = spread.widen(intervals, names)
-rates = np.concatenate([d.shear_rates for d in details.values()])
-band = np.percentile(rates, [5, 95]).tolist() if len(rates) else None
+band = shear_rate_band(list(details.values()))
 params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined}
           for n, i in intervals.items()}
 if law.n is not None:
@@ -88,7 +87,7 @@ if law.n is not None:
 for n, i in intervals.items():
     log.info("%s = %.4g, 95%% interval [%.4g, %.4g]%s", n, i.value, i.low, i.high,
              "" if i.determined else " (not determined by the recordings)")
-if len(rates):
+if band is not None:
     log.info("shear rates reached (5th-95th percentile of moving particles): %.3g-%.3g 1/s", *band)
 else:
     log.warning("no particle moved faster than %g 1/s: no shear-rate band", MOVING_RATE)

@@ -6,11 +6,11 @@ from pathlib import Path
 
 import numpy as np
 
-from rheo.experiments.rheometer import log_rms_error, read_flow_curve
+from rheo.experiments.rheometer import read_flow_curve
 from rheo.fit.dam_break import RESULT_KEYS
 from rheo.io import read_json, write_text_atomic
 from rheo.report.html import figure_tag, image_tag, page, table_tag
-from rheo.report.virheometry import flow_figure
+from rheo.report.virheometry import flow_figure, rheometer_comparison
 from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -53,14 +53,9 @@ law = tuple(params[k]["value"] for k in KEYS)
 tolerated_laws = np.array(params["within_tolerance"]["laws"])
 comparison = ""
 if curves and band is not None:
-    rows = []
-    for curve in curves:
-        inside = curve.within(tuple(band))
-        error = log_rms_error(*law, inside) if len(inside.shear_rate) else float("nan")
-        rows.append([curve.name, f"{curve.temperature:.1f}", str(len(inside.shear_rate)), f"{error:.3f}"])
-        log.info("%s: RMS log10 error %.3f over %d points in %.3g-%.3g 1/s", curve.name, error,
-                 len(inside.shear_rate), *band)
-    comparison = table_tag(["rheometer curve", "temperature (C)", "points in the band", "RMS log10 error"], rows)
+    comparison, errors = rheometer_comparison({"recovered": law}, curves, band)
+    for name, error in errors.items():
+        log.info("%s: RMS log10 error %.3f over %.3g-%.3g 1/s", name, error["recovered"], *band)
 sections.append(("Flow curve", figure_tag(flow_figure(law, tolerated_laws, band, curves, envelope=True),
                                           "recovered law; band: the curves of every evaluated material within the "
                                           "tolerance of the best") + comparison))

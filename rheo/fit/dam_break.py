@@ -132,6 +132,13 @@ class DamBreakTarget:
 RESULT_KEYS = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}  # their keys in params.json
 
 
+def shear_rate_band(results: list[Comparison]) -> list[float] | None:
+    """The shear rates (1/s) the simulated flows reach: 5th-95th percentile of the moving particles' over the
+    compared frames of every setup (None when nothing moved)."""
+    rates = np.concatenate([r.shear_rates for r in results])
+    return np.percentile(rates, [5, 95]).tolist() if len(rates) else None
+
+
 def setup_files(records: list[str], masks: list[str]) -> dict[str, tuple[str, str]]:
     """The imported setups by name (their source folder's): (setup.json, masks.npz)."""
     names = [Path(json.loads(Path(r).read_text())["folder"]).name for r in records]

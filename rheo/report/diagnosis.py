@@ -3,6 +3,8 @@ verdict and its gain on held-out frames; and the concealed cases' confusion tabl
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -10,7 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from rheo.report.html import figure_tag, image_tag, table_tag
-from rheo.report.virheometry import overlay
+from rheo.report.virheometry import overlay_grid
 
 
 def shown_frames(fitted: np.ndarray) -> list[int]:
@@ -23,23 +25,13 @@ def shown_frames(fitted: np.ndarray) -> list[int]:
 def maps_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]], margin: int = 15):
     """Per setup (name: recorded masks, the base fit's silhouettes, the refit's or None, which frames are fitted)
     residual maps of chosen frames: a row for the base fit, a row for the refit."""
-    lines = [(name, label, masks, simulated, fitted)
+    def title(name: str, label: str, fitted: np.ndarray) -> Callable[[int], str]:
+        return lambda k: f"{name}, {label}\nframe {k + 1}{'' if fitted[k] else ' (held out)'}"
+
+    lines = [(masks, simulated, title(name, label, fitted))
              for name, (masks, before, after, fitted) in rows.items()
              for label, simulated in (("base fit", before), ("refit", after)) if simulated is not None]
-    frames = shown_frames(next(iter(rows.values()))[3])
-    fig, axes = plt.subplots(len(lines), len(frames), figsize=(3.2 * len(frames), 2.3 * len(lines)), squeeze=False)
-    for row, (name, label, masks, simulated, fitted) in zip(axes, lines, strict=True):
-        ys, xs = np.nonzero(masks.any(axis=0) | simulated.any(axis=0))
-        for ax, k in zip(row, frames, strict=True):
-            ax.imshow(overlay(masks[k], simulated[k]))
-            ax.set_xlim(xs.min() - margin, xs.max() + margin)
-            ax.set_ylim(ys.max() + margin, ys.min() - margin)
-            held = "" if fitted[k] else " (held out)"
-            ax.set_title(f"{name}, {label}\nframe {k + 1}{held}", fontsize=8)
-            ax.axis("off")
-    fig.suptitle("grey: both; red: recorded only; blue: simulated only", fontsize=9)
-    fig.tight_layout()
-    return fig
+    return overlay_grid(lines, shown_frames(next(iter(rows.values()))[3]), (3.2, 2.3), margin)
 
 
 def _value(v) -> str:

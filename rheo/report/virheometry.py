@@ -2,15 +2,18 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from rheo.experiments.rheometer import FlowCurve
+from rheo.experiments.rheometer import FlowCurve, log_rms_error
 from rheo.experiments.virheometry import Setup
 from rheo.report.fit import flow_curve_figure
+from rheo.report.html import table_tag
 
 # pairs of Setup.cuboid_corners() that differ along one axis
 CUBOID_EDGES = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)]
@@ -51,18 +54,43 @@ def frames_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], ma
     overlaid."""
     count = len(next(iter(rows.values()))[0])
     frames = (0, (count - 1) // 2, count - 1)
-    fig, axes = plt.subplots(len(rows), len(frames), figsize=(3.4 * len(frames), 2.4 * len(rows)), squeeze=False)
-    for row, (name, (masks, simulated, iou)) in zip(axes, rows.items(), strict=True):
+    return overlay_grid([(masks, simulated, lambda k, name=name, iou=iou: f"{name}\nframe {k + 1}: IoU {iou[k]:.3f}")
+                         for name, (masks, simulated, iou) in rows.items()], frames, (3.4, 2.4), margin)
+
+
+def overlay_grid(lines: list[tuple[np.ndarray, np.ndarray, Callable[[int], str]]], frames: Sequence[int],
+                 panel: tuple[float, float], margin: int = 15):
+    """One row per line (recorded masks, simulated silhouettes, the title of frame k), the ``frames`` overlaid
+    (``overlay``) and cropped to what either shows; ``panel``: a panel's size (inches)."""
+    fig, axes = plt.subplots(len(lines), len(frames), figsize=(panel[0] * len(frames), panel[1] * len(lines)),
+                             squeeze=False)
+    for row, (masks, simulated, title) in zip(axes, lines, strict=True):
         ys, xs = np.nonzero(masks.any(axis=0) | simulated.any(axis=0))
         for ax, k in zip(row, frames, strict=True):
             ax.imshow(overlay(masks[k], simulated[k]))
             ax.set_xlim(xs.min() - margin, xs.max() + margin)
             ax.set_ylim(ys.max() + margin, ys.min() - margin)
-            ax.set_title(f"{name}\nframe {k + 1}: IoU {iou[k]:.3f}", fontsize=8)
+            ax.set_title(title(k), fontsize=8)
             ax.axis("off")
     fig.suptitle("grey: both; red: recorded only; blue: simulated only", fontsize=9)
     fig.tight_layout()
     return fig
+
+
+def rheometer_comparison(laws: dict[str, tuple[float, float, float]], curves: list[FlowCurve],
+                         band: tuple[float, float]) -> tuple[str, dict[str, dict[str, float]]]:
+    """The RMS of log10(tau_law / tau_rheometer) of every law (label: tau_y, K, n) against every rheometer curve
+    over the shear-rate ``band``: an HTML table and the errors by curve and label."""
+    rows, errors = [], {}
+    for curve in curves:
+        inside = curve.within(tuple(band))
+        errors[curve.name] = {label: log_rms_error(*law, inside) if len(inside.shear_rate) else float("nan")
+                              for label, law in laws.items()}
+        rows.append([curve.name, f"{curve.temperature:.1f}", str(len(inside.shear_rate)),
+                     *[f"{e:.3f}" for e in errors[curve.name].values()]])
+    header = ["rheometer curve", "temperature (C)", "points in the band",
+              *(["RMS log10 error"] if len(laws) == 1 else [f"RMS log10, {label}" for label in laws])]
+    return table_tag(header, rows), errors
 
 
 def flow_figure(law: tuple[float, float, float], samples: np.ndarray, band: tuple[float, float] | None,
