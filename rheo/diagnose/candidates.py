@@ -3,7 +3,8 @@
 Six are physics a recording may show (floor friction, wall adhesion, a gate lifted at a finite speed, shear
 thinning, thixotropy, air drag); two are decoys, not physics of the material (gravity tilted, a wrong density): a
 diagnosis that names them has found a free parameter that fits, not an effect. Each is searched on a coordinate
-(its logarithm, or the value itself for the two-sided ones) from a modest effect, within a box.
+(its logarithm, or the value itself for the tilt) within a box, climbing rungs of magnitude outward from the null
+(both ways for the two-sided decoys).
 """
 
 from __future__ import annotations
@@ -20,17 +21,17 @@ from rheo.experiments.dam_break import Effects
 @dataclass(frozen=True)
 class Candidate:
     """An effect: ``name`` (key), ``title`` (plain words), its parameter (``parameter``, ``unit``), the ``null`` value
-    that gives back the base model, where a refit ``start``s and the box [``low``, ``high``] it searches, on the
-    logarithm when ``log``."""
+    that gives back the base model, the box [``low``, ``high``] searched (on the logarithm when ``log``) and the
+    ``rungs`` of magnitude a profile climbs, outward from the null (one branch per side)."""
 
     name: str
     title: str
     parameter: str
     unit: str
     null: float
-    start: float
     low: float
     high: float
+    rungs: tuple[tuple[float, ...], ...]
     log: bool = True
     decoy: bool = False
     step: float = 0.7  # initial simplex step on the search coordinate
@@ -44,6 +45,15 @@ class Candidate:
     @property
     def bounds(self) -> tuple[float, float]:
         return self.coordinate(self.low), self.coordinate(self.high)
+
+    @property
+    def nearest_null(self) -> float:
+        """The coordinate in the box nearest the null value: the null itself where the box holds it, else the end
+        towards it (the weakest effect searched; an infinite friction coefficient or a zero on a logarithm lies
+        outside every box)."""
+        null = -math.inf if self.log and self.null == 0 else self.coordinate(self.null)
+        low, high = self.bounds
+        return min(max(null, low), high)
 
     def apply(self, value: float, law: dict[str, float], effects: Effects) -> tuple[dict[str, float], Effects]:
         """The law (tau_y, K, n) and effects with this effect at ``value``."""
@@ -71,18 +81,21 @@ class Candidate:
 CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
     # null: a sticky floor (an infinite coefficient); the box reaches from a floor that barely holds to nearly sticky
     Candidate("floor_friction", "floor friction (the material slides on the floor)", "Coulomb coefficient", "",
-              math.inf, 1.0, 0.05, 5.0),
-    Candidate("wall_adhesion", "wall adhesion (smooth walls hold the material)", "adhesion", "Pa", 0.0, 20.0, 1.0,
-              1000.0),
-    Candidate("gate_lift", "a gate lifted at a finite speed", "lift time", "s", 0.0, 0.05, 0.005, 0.3),
-    Candidate("shear_thinning", "shear thinning (flow index n != 1)", "flow index n", "", 1.0, 0.7, 0.15, 2.0,
-              step=0.3),
+              math.inf, 0.05, 5.0, ((2.0, 0.7, 0.25, 0.09),)),
+    Candidate("wall_adhesion", "wall adhesion (smooth walls hold the material)", "adhesion", "Pa", 0.0, 1.0, 1000.0,
+              ((5.0, 15.0, 45.0, 135.0),)),
+    Candidate("gate_lift", "a gate lifted at a finite speed", "lift time", "s", 0.0, 0.005, 0.3,
+              ((0.03, 0.06, 0.12, 0.24),)),
+    Candidate("shear_thinning", "shear thinning (flow index n != 1)", "flow index n", "", 1.0, 0.15, 2.0,
+              ((0.85, 0.7, 0.55, 0.4),), step=0.3),
     Candidate("thixotropy", "thixotropy (the yield stress falls as the material is sheared)", "breakdown per unit "
-              "plastic shear strain", "", 0.0, 0.3, 0.01, 10.0),
-    Candidate("air_drag", "air drag", "quadratic drag coefficient", "1/m", 0.0, 3.0, 0.1, 100.0),
-    Candidate("gravity_tilt", "gravity tilted along the channel (decoy)", "tilt", "deg", 0.0, 0.0, -15.0, 15.0,
-              log=False, decoy=True, step=3.0),
-    Candidate("density", "a wrong density (decoy)", "density factor", "", 1.0, 1.0, 0.5, 2.0, decoy=True, step=0.2),
+              "plastic shear strain", "", 0.0, 0.01, 10.0, ((0.1, 0.3, 1.0, 3.0),)),
+    Candidate("air_drag", "air drag", "quadratic drag coefficient", "1/m", 0.0, 0.1, 100.0,
+              ((2.0, 6.0, 20.0, 60.0),)),
+    Candidate("gravity_tilt", "gravity tilted along the channel (decoy)", "tilt", "deg", 0.0, -15.0, 15.0,
+              ((2.0, 5.0, 10.0), (-2.0, -5.0, -10.0)), log=False, decoy=True, step=3.0),
+    Candidate("density", "a wrong density (decoy)", "density factor", "", 1.0, 0.5, 2.0,
+              ((1.25, 1.6), (0.8, 0.63)), decoy=True, step=0.2),
 )}
 
 

@@ -1,7 +1,7 @@
 """The diagnosis of a dam-break fit: where the best fit still disagrees with the recordings, which candidate effect
 explains it, the refit with that effect, and the gain on the frames held out of every fit.
 
-Each candidate's refit starts from the base fit's law and a modest effect and runs a short Nelder-Mead search; the
+Each candidate is refitted along its profile (the effect climbing rungs of magnitude, the law refitted at each); the
 candidates are ranked by the information criterion (``rheo.diagnose.selection``), and the winner, if any, is
 refitted with more evaluations. Every evaluation is stored, so an interrupted diagnosis resumes.
 """
@@ -18,7 +18,7 @@ import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES, Candidate, Law
 from rheo.diagnose.residuals import Location, locate
-from rheo.diagnose.selection import Refit, choose, refit_with, refits
+from rheo.diagnose.selection import Refit, choose, profile_refit, refits
 from rheo.experiments.virheometry import Setup
 from rheo.fit.dam_break import Comparison, compare_law, targets
 from rheo.fit.parallel import Evaluator
@@ -108,8 +108,8 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
              on_evaluation: Callable[[str, np.ndarray, float], None] = lambda *_: None) -> Diagnosis:
     """Diagnose the fit ``base_values`` (tau_y, K, n) of the ``setups`` (name: (setup.json, masks.npz)), fitted with
     ``fit_settings`` (its boxes, its fixed flow index) on ``simulation``'s grid. ``settings``: ``candidates`` (names),
-    ``evaluations`` (per short refit), ``refit_evaluations``, ``law_step`` (initial simplex of the law, log units),
-    ``evidence`` (least drop of the criterion)."""
+    ``rung_evaluations`` (the law's refit at each rung of a profile), ``refit_evaluations``, ``law_step`` (initial
+    simplex of the law, log units), ``evidence`` (least drop of the criterion)."""
     records = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:
@@ -135,29 +135,24 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
 
             return lambda x, phase: log.evaluate_many(joint, [x], phase)[0]
 
-        def refit(name: str, x: np.ndarray, phase: str) -> Refit:
-            record = log.record(phase, x)
-            return Refit(name, np.asarray(x), record["loss"], record["held_out_loss"],
-                         np.asarray(record["distances"]), len(x))
-
         evaluate("base")(x_base, "base")
-        base = refit("base", x_base, "base")
+        base = Refit.of("base", log.record("base", x_base))
         side_by_side = max(1, workers // len(setups))
-        found = refits(candidates, lambda c: refit_with(c, evaluate(c.name), log.record, x_base, law_box,
-                                                        settings["law_step"], settings["evaluations"]),
+        found = refits(candidates, lambda c: profile_refit(c, evaluate(c.name), log.best, x_base, law_box,
+                                                           settings["law_step"], settings["rung_evaluations"]),
                        side_by_side)
         for r in sorted(found, key=lambda r: r.criterion):
             logger.info("%s: loss %.4g px (base %.4g), criterion %+.2f", r.name, r.loss, base.loss,
                         r.criterion - base.criterion)
         chosen = choose(base, found, settings["evidence"])
-        if chosen is not None:
+        if chosen is not None and settings["refit_evaluations"] > 0:
             candidate = CANDIDATES[chosen.name]
             low, high = candidate.bounds
             box = (np.r_[law_box[0], low], np.r_[law_box[1], high])
             steps = np.r_[np.full(len(x_base), 0.5 * settings["law_step"]), 0.5 * candidate.step]
-            x, _ = simplex_search(evaluate(chosen.name), chosen.x, steps, settings["refit_evaluations"],
-                                  f"final {chosen.name}", box=box)
-            final = refit(chosen.name, x, f"final {chosen.name}")
+            simplex_search(evaluate(chosen.name), chosen.x, steps, settings["refit_evaluations"],
+                           f"final {chosen.name}", box=box)
+            final = Refit.of(chosen.name, log.best(f"final {chosen.name}"))
             chosen = final if final.loss <= chosen.loss else chosen
         before = dict(zip(setups, evaluator.map([(f"base|{s}", x_base) for s in setups]), strict=True))
         after = before if chosen is None else dict(zip(setups, evaluator.map(

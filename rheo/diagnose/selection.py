@@ -23,6 +23,7 @@ from rheo.diagnose.candidates import Candidate
 from rheo.fit.search import simplex_search
 
 EVIDENCE = 6.0  # least drop of the information criterion that names an effect
+STOP_RISE = 1.25  # a profile stops climbing once a rung's loss exceeds the lowest so far by this factor
 
 
 def information_criterion(distances: np.ndarray, parameters: int) -> float:
@@ -44,28 +45,56 @@ class Refit:
     distances: np.ndarray
     parameters: int
 
+    @classmethod
+    def of(cls, name: str, record: dict) -> Refit:
+        """From an evaluation's stored record (its point, losses and distances)."""
+        return cls(name, np.asarray(record["x"]), record["loss"], record["held_out_loss"],
+                   np.asarray(record["distances"]), len(record["x"]))
+
     @property
     def criterion(self) -> float:
         return information_criterion(self.distances, self.parameters)
 
 
-# evaluate(x, phase) -> loss; details(phase, x) -> the stored record of a point evaluated in ``phase``
+# evaluate(x, phase) -> loss; best(phase) -> the stored record of the lowest loss evaluated in ``phase``
 Evaluate = Callable[[np.ndarray, str], float]
-Details = Callable[[str, np.ndarray], dict]
+Best = Callable[[str], dict]
 
 
-def refit_with(candidate: Candidate, evaluate: Evaluate, details: Details, base_x: np.ndarray,
-               law_box: tuple[np.ndarray, np.ndarray], law_step: float, evaluations: int) -> Refit:
-    """A short Nelder-Mead refit of the law with ``candidate`` added, from the base fit's law and the candidate's
-    start, inside the law's box and the candidate's."""
-    start = np.r_[base_x, candidate.coordinate(candidate.start)]
-    low, high = candidate.bounds
-    box = (np.r_[law_box[0], low], np.r_[law_box[1], high])
-    steps = np.r_[np.full(len(base_x), law_step), candidate.step]
+def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: np.ndarray,
+                  law_box: tuple[np.ndarray, np.ndarray], law_step: float, rung_evaluations: int) -> Refit:
+    """The candidate's best fit along its profile: from the base fit with the effect at its null (or the nearest
+    the box allows, so that the refit, a model holding the base one, ends no worse), the effect climbs its rungs of
+    magnitude and the law is refitted at each by a short Nelder-Mead search (``rung_evaluations``, initial simplex
+    ``law_step``). An effect the base fit compensated with a very different law (a slow gate with a strong
+    material, say) needs that law moved far: each rung starts from the law extrapolated from the two before
+    (continuation along the valley). A branch stops climbing once a rung's loss exceeds the best so far by
+    ``STOP_RISE``."""
     phase = f"refit {candidate.name}"
-    x, loss = simplex_search(evaluate, start, steps, evaluations, phase, box=box)
-    record = details(phase, x)
-    return Refit(candidate.name, x, loss, record["held_out_loss"], np.asarray(record["distances"]), len(start))
+    null = candidate.nearest_null
+    lowest = evaluate(np.r_[base_x, null], phase)
+    for branch in candidate.rungs:
+        path = [(null, base_x)]
+        for value in branch:
+            rung = candidate.coordinate(value)
+            law = path[-1][1]
+            if len(path) > 1:
+                (c0, x0), (c1, x1) = path[-2:]
+                law = x1 + (x1 - x0) * (rung - c1) / (c1 - c0)
+            found: list[tuple[float, np.ndarray]] = []
+
+            def at_rung(y: np.ndarray, _: str, rung: float = rung, found: list = found) -> float:
+                loss = evaluate(np.r_[y, rung], phase)
+                found.append((loss, np.asarray(y)))
+                return loss
+
+            simplex_search(at_rung, np.clip(law, *law_box), law_step, rung_evaluations, phase, box=law_box)
+            loss, law = min(found, key=lambda f: f[0])
+            path.append((rung, law))
+            if loss > STOP_RISE * lowest:
+                break
+            lowest = min(lowest, loss)
+    return Refit.of(candidate.name, best(phase))
 
 
 def refits(candidates: Sequence[Candidate], search: Callable[[Candidate], Refit], side_by_side: int) -> list[Refit]:

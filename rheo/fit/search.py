@@ -109,6 +109,12 @@ class EvaluationLog:
         with self._lock:
             return self._index[self._point_key(phase, x)]
 
+    def best(self, phase: str) -> dict:
+        """The stored record of the lowest loss evaluated in ``phase`` (a search stopped by its budget may have
+        evaluated a better point than the simplex it returns)."""
+        with self._lock:
+            return min((r for r in self.records if r["phase"] == phase), key=lambda r: r["loss"])
+
     def _write(self) -> None:
         seconds = self.earlier_seconds + time.monotonic() - self._started
         write_atomic(self.path, lambda p: p.write_text(json.dumps({"key": self.key, "records": self.records,
@@ -138,11 +144,13 @@ def survey(evaluate: Evaluate, centre: np.ndarray, half_width: float | np.ndarra
 
 
 def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float | np.ndarray, evaluations: int,
-                   phase: str, tolerance: float = 0.01,
-                   box: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float]:
-    """Nelder-Mead from ``start`` with an initial simplex of ``step`` (log units) along each axis, for at most
-    ``evaluations`` evaluations or until the simplex is within ``tolerance`` (log units), inside ``box`` if given."""
-    simplex = start + np.r_[np.zeros((1, len(start))), step * np.eye(len(start))]
+                   phase: str, tolerance: float = 0.01, box: tuple[np.ndarray, np.ndarray] | None = None,
+                   simplex: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    """Nelder-Mead from ``start`` with an initial simplex of ``step`` (log units) along each axis (or the vertices
+    ``simplex``, one per row, ``start`` the first), for at most ``evaluations`` evaluations or until the simplex is
+    within ``tolerance`` (log units), inside ``box`` if given."""
+    if simplex is None:
+        simplex = start + np.r_[np.zeros((1, len(start))), step * np.eye(len(start))]
     bounds = None if box is None else list(zip(box[0], box[1], strict=True))
     if bounds is not None:
         simplex = np.clip(simplex, box[0], box[1])

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from rheo.diagnose.candidates import CANDIDATES, Law
-from rheo.diagnose.selection import EVIDENCE, Refit, choose, information_criterion, refit_with
+from rheo.diagnose.selection import EVIDENCE, Refit, choose, information_criterion, profile_refit
 from rheo.experiments.dam_break import Effects
 from rheo.fit.search import EvaluationLog
 
@@ -35,27 +35,56 @@ def test_an_effect_is_named_only_when_it_pays_for_its_parameter():
     assert strong.criterion < base.criterion - EVIDENCE
 
 
-def test_a_short_refit_finds_the_effect_and_the_law_of_a_known_optimum(tmp_path):
-    """A loss whose minimum lies at tau_y 10, K 3 and a Coulomb coefficient 0.4, evaluated through the log."""
-    candidate = CANDIDATES["floor_friction"]
-    optimum = np.array([math.log(10.0), math.log(3.0), candidate.coordinate(0.4)])
-    log = EvaluationLog(tmp_path / "log.json", "key")
-
+def _logged(log: EvaluationLog, loss):
+    """evaluate(x, phase) through the log, with the details a diagnosis stores."""
     def evaluate(x, phase):
-        def details(points):
-            out = []
-            for p in points:
-                loss = 0.01 + float(np.sum((p - optimum) ** 2))
-                out.append({"loss": loss, "held_out_loss": 2 * loss, "distances": [loss] * 4})
-            return out
-        return log.evaluate_many(details, [x], phase)[0]
+        return log.evaluate_many(lambda points: [{"loss": loss(p), "held_out_loss": 2 * loss(p),
+                                                  "distances": [loss(p)] * 4} for p in points], [x], phase)[0]
+    return evaluate
 
+
+LAW_BOX = (np.log([0.1, 0.1]), np.log([100.0, 100.0]))
+
+
+def test_a_profile_follows_the_law_an_effect_needs_far_from_the_base_fit(tmp_path):
+    """The data want a Coulomb coefficient of 0.3, and at each coefficient a law that moves away from the base fit
+    the more the material slides (log tau_y up 0.5, log K down 0.3 per unit of log coefficient): at 0.25 (the
+    nearest rung) a factor 4.5 in tau_y. Climbing the rungs, the profile follows that valley."""
+    candidate = CANDIDATES["floor_friction"]
     base_x = np.log([8.0, 2.5])
-    refit = refit_with(candidate, evaluate, log.record, base_x, (np.log([0.1, 0.1]), np.log([100.0, 100.0])),
-                       0.15, 200)
-    assert refit.x == pytest.approx(optimum, abs=0.02)
-    assert refit.loss == pytest.approx(0.01, abs=1e-3) and refit.held_out_loss == pytest.approx(2 * refit.loss)
-    assert refit.parameters == 3 and len(log.records) <= 200
+    null, target = candidate.nearest_null, candidate.coordinate(0.3)
+
+    def valley(c: float) -> np.ndarray:
+        return base_x + np.array([0.5, -0.3]) * (null - c)
+
+    def loss(p: np.ndarray) -> float:
+        return 0.01 + float(np.sum((p[:2] - valley(p[2])) ** 2)) + 0.2 * (p[2] - target) ** 2
+
+    log = EvaluationLog(tmp_path / "log.json", "key")
+    refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, 0.3, 5)
+    assert candidate.value(refit.x[2]) == pytest.approx(0.25)
+    assert refit.x[:2] == pytest.approx(valley(refit.x[2]), abs=0.15)
+    assert refit.loss < 0.05 < loss(np.r_[base_x, null]) / 20
+    assert refit.held_out_loss == pytest.approx(2 * refit.loss) and refit.parameters == 3
+    assert len(log.records) <= 1 + 4 * 5
+
+
+@pytest.mark.parametrize("name", ["shear_thinning", "thixotropy", "floor_friction", "gravity_tilt"])
+def test_a_refit_is_never_worse_than_the_base_fit_with_the_effect_at_its_null(tmp_path, name):
+    """A loss that any amount of the effect worsens, on a rough law landscape whose best lies at the base fit: the
+    profile stops after its first rung (on each side) and keeps the effect's nearest null value and the base fit's
+    loss."""
+    candidate = CANDIDATES[name]
+    base_x = np.log([8.0, 2.5])
+
+    def loss(p: np.ndarray) -> float:
+        law = float(np.sum((p[:2] - base_x) ** 2) + 0.05 * np.sum(np.abs(np.sin(40 * (p[:2] - base_x)))))
+        return 0.02 + law + 0.5 * abs(p[2] - candidate.nearest_null)
+
+    log = EvaluationLog(tmp_path / "log.json", "key")
+    refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, 0.3, 5)
+    assert refit.loss == pytest.approx(0.02) and refit.x[2] == candidate.nearest_null
+    assert len(log.records) <= 1 + 5 * len(candidate.rungs)
 
 
 def test_candidates_at_their_null_values_give_back_the_base_law_and_effects():
@@ -70,7 +99,16 @@ def test_candidates_at_their_null_values_give_back_the_base_law_and_effects():
             with_null = Law(1.0, candidate).unpack(np.r_[x, null])
             assert with_null[0] == pytest.approx(values) and with_null[1] == effects, candidate.name
         low, high = candidate.bounds
-        assert low < candidate.coordinate(candidate.start) < high or candidate.start == candidate.null
+        for branch in candidate.rungs:  # outward from the null, inside the box
+            coordinates = [candidate.nearest_null, *map(candidate.coordinate, branch)]
+            assert all(low <= c <= high for c in coordinates)
+            assert np.all(np.diff(coordinates) > 0) or np.all(np.diff(coordinates) < 0), candidate.name
+        assert low <= candidate.nearest_null <= high
+        if candidate.null != 0 or not candidate.log:
+            null = candidate.coordinate(candidate.null)
+            assert candidate.nearest_null == (null if low <= null <= high else high), candidate.name
+        else:
+            assert candidate.nearest_null == low
     _, sliding = Law(1.0, CANDIDATES["floor_friction"]).unpack(np.r_[x, math.log(0.3)])
     assert sliding.floor_friction == pytest.approx(0.3)
     _, tilted = Law(1.0, CANDIDATES["gravity_tilt"]).unpack(np.r_[x, 5.0])
