@@ -1,5 +1,5 @@
-"""Which candidate effect the recording asks for: short refits with each effect added, compared by an information
-criterion so that a free parameter does not win by default.
+"""Which candidate effect the recording asks for: each effect added and refitted along its profile, compared by an
+information criterion so that a free parameter does not win by default.
 
 A fit's per-frame boundary distances over the fitted frames (of every setup) are taken as Gaussian residuals of one
 unknown scale; its Bayesian information criterion is then N log(SSE / N) + k log N (N frames, k fitted parameters).

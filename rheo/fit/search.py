@@ -144,13 +144,11 @@ def survey(evaluate: Evaluate, centre: np.ndarray, half_width: float | np.ndarra
 
 
 def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float | np.ndarray, evaluations: int,
-                   phase: str, tolerance: float = 0.01, box: tuple[np.ndarray, np.ndarray] | None = None,
-                   simplex: np.ndarray | None = None) -> tuple[np.ndarray, float]:
-    """Nelder-Mead from ``start`` with an initial simplex of ``step`` (log units) along each axis (or the vertices
-    ``simplex``, one per row, ``start`` the first), for at most ``evaluations`` evaluations or until the simplex is
-    within ``tolerance`` (log units), inside ``box`` if given."""
-    if simplex is None:
-        simplex = start + np.r_[np.zeros((1, len(start))), step * np.eye(len(start))]
+                   phase: str, tolerance: float = 0.01,
+                   box: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float]:
+    """Nelder-Mead from ``start`` with an initial simplex of ``step`` (log units) along each axis, for at most
+    ``evaluations`` evaluations or until the simplex is within ``tolerance`` (log units), inside ``box`` if given."""
+    simplex = start + np.r_[np.zeros((1, len(start))), step * np.eye(len(start))]
     bounds = None if box is None else list(zip(box[0], box[1], strict=True))
     if bounds is not None:
         simplex = np.clip(simplex, box[0], box[1])
