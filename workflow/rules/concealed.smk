@@ -80,11 +80,29 @@ rule concealed_fit:
         "../../stages/virheometry_fit.py"
 
 
+rule concealed_oracle:
+    input:
+        truth="results/concealed/{case}/truth.json",
+        setup="results/concealed/{case}/recording/setup.json",
+        masks="results/concealed/{case}/recording/masks.npz",
+    output:
+        "results/concealed/{case}/oracle.json",
+    log:
+        "logs/concealed/{case}/oracle.log",
+    wildcard_constraints:
+        case=r"[A-Za-z0-9_.]+",
+    params:
+        simulation=concealed_simulation(),
+    script:
+        "../../stages/concealed_oracle.py"
+
+
 rule concealed_summary:
     input:
         diagnoses=expand("results/concealed/{case}/diagnosis/diagnosis.json", case=concealed_cases()),
         truths=expand("results/concealed/{case}/truth.json", case=concealed_cases()),
         fits=expand("results/concealed/{case}/fit/params.json", case=concealed_cases()),
+        oracles=expand("results/concealed/{case}/oracle.json", case=concealed_cases()),
     output:
         "results/concealed/summary.html",
     log:
