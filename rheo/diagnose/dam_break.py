@@ -137,7 +137,9 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
 
         evaluate("base")(x_base, "base")
         base = Refit.of("base", log.record("base", x_base))
-        side_by_side = max(1, workers // len(setups))
+        # as many candidates side by side as there are workers, whatever the setups: a small setup's simulation
+        # then shares a worker's time with another candidate's instead of waiting for the large one
+        side_by_side = workers if workers > 1 else 1
         found = refits(candidates, lambda c: profile_refit(c, evaluate(c.name), log.best, x_base, law_box,
                                                            settings["law_step"], settings["rung_evaluations"]),
                        side_by_side)
