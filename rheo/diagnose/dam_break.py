@@ -137,12 +137,9 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
 
         evaluate("base")(x_base, "base")
         base = Refit.of("base", log.record("base", x_base))
-        # as many candidates side by side as there are workers, whatever the setups: a small setup's simulation
-        # then shares a worker's time with another candidate's instead of waiting for the large one
-        side_by_side = workers if workers > 1 else 1
         found = refits(candidates, lambda c: profile_refit(c, evaluate(c.name), log.best, x_base, law_box,
                                                            settings["law_step"], settings["rung_evaluations"]),
-                       side_by_side)
+                       workers)  # a candidate per worker: a small setup's simulation does not wait for a large one
         for r in sorted(found, key=lambda r: r.criterion):
             logger.info("%s: loss %.4g px (base %.4g), criterion %+.2f", r.name, r.loss, base.loss,
                         r.criterion - base.criterion)
