@@ -12,6 +12,7 @@ adhesion at -2.1.)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -44,6 +45,7 @@ class Refit:
     held_out_loss: float
     distances: np.ndarray
     parameters: int
+    profile: tuple[tuple[float, float], ...] = ()  # (effect's magnitude, lowest loss there) along a profile
 
     @classmethod
     def of(cls, name: str, record: dict) -> Refit:
@@ -73,6 +75,7 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
     phase = f"refit {candidate.name}"
     null = candidate.nearest_null
     lowest = evaluate(np.r_[base_x, null], phase)
+    profile = [(candidate.value(null), lowest)]
     for branch in candidate.rungs:
         path = [(null, base_x)]
         for value in branch:
@@ -91,10 +94,11 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
             simplex_search(at_rung, np.clip(law, *law_box), law_step, rung_evaluations, phase, box=law_box)
             loss, law = min(found, key=lambda f: f[0])
             path.append((rung, law))
+            profile.append((value, loss))
             if loss > STOP_RISE * lowest:
                 break
             lowest = min(lowest, loss)
-    return Refit.of(candidate.name, best(phase))
+    return dataclasses.replace(Refit.of(candidate.name, best(phase)), profile=tuple(sorted(profile)))
 
 
 def refits(candidates: Sequence[Candidate], search: Callable[[Candidate], Refit], side_by_side: int) -> list[Refit]:

@@ -1,5 +1,5 @@
-"""The "What the model leaves out" section: residual maps before and after the refit, the candidates' table, the
-verdict and its gain on held-out frames; and the concealed cases' confusion table."""
+"""The "What the model leaves out" section: residual maps before and after the refit, the candidates' table and
+profiles, the verdict and its gain on held-out frames; and the concealed cases' confusion table."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from rheo.diagnose.candidates import CANDIDATES
 from rheo.report.html import figure_tag, image_tag, table_tag
 from rheo.report.virheometry import overlay_grid
 
@@ -32,6 +33,33 @@ def maps_figure(rows: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray | None,
              for name, (masks, before, after, fitted) in rows.items()
              for label, simulated in (("base fit", before), ("refit", after)) if simulated is not None]
     return overlay_grid(lines, shown_frames(next(iter(rows.values()))[3]), (3.2, 2.3), margin)
+
+
+def profiles_figure(candidates: list[dict], base_loss: float):
+    """Each candidate's profile: the lowest loss found with the effect held at each magnitude (the law refitted
+    there), against the base fit's loss."""
+    shown = [c for c in candidates if c.get("profile")]
+    columns = min(4, len(shown))
+    rows = -(-len(shown) // columns)
+    fig, axes = plt.subplots(rows, columns, figsize=(2.7 * columns, 2.3 * rows), squeeze=False, sharey=True)
+    for ax, c in zip(axes.flat, shown, strict=False):  # (spare panels left blank below)
+        candidate = CANDIDATES[c["effect"]]
+        values, losses = np.array(c["profile"]).T
+        ax.plot(values, losses, "o-", ms=3, color="tab:red" if candidate.decoy else "tab:blue")
+        ax.axhline(base_loss, color="0.5", ls="--", lw=0.8)
+        if candidate.log:
+            ax.set_xscale("log")
+        ax.set_xticks(values, [f"{v:.2g}" for v in values], rotation=45)
+        ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+        ax.set_title(f"{c['effect'].replace('_', ' ')} ({c['delta_criterion']:+.1f})", fontsize=8)
+        ax.set_xlabel(candidate.parameter + (f" ({candidate.unit})" if candidate.unit else ""), fontsize=7)
+        ax.tick_params(labelsize=7)
+    for ax in axes.flat[len(shown):]:
+        ax.axis("off")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("fitted frames' loss (px)", fontsize=7)
+    fig.tight_layout()
+    return fig
 
 
 def _value(v) -> str:
@@ -59,7 +87,11 @@ def section(record: dict, maps: bytes | None = None, extra: str = "") -> str:
     criterion = (f"<p>Ranked by {record['criterion']}; an effect is named when it lowers the criterion by more "
                  f"than {record['evidence']:g}.</p>")
     figure = "" if maps is None else image_tag(maps, "png", "residual maps before and after the refit")
-    return verdict + mismatch + criterion + table + figure + extra
+    profiles = ("" if not any(c.get("profile") for c in record["candidates"]) else figure_tag(
+        profiles_figure(record["candidates"], record["base"]["loss_px"]),
+        "each candidate's profile: the lowest loss with the effect held at each magnitude, the law refitted there "
+        "(dashed: the base fit; in brackets, the change of the criterion; red: decoys)"))
+    return verdict + mismatch + criterion + table + profiles + figure + extra
 
 
 def confusion_figure(truths: list[str], named: list[str], labels: list[str]):

@@ -32,10 +32,15 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     # a tilt of 0 is the base model itself, and every profile starts there: no refit ends worse than the base fit
     tilt, = (c for c in diagnosis["candidates"] if c["effect"] == "gravity_tilt")
     assert tilt["loss_px"] <= diagnosis["base"]["loss_px"]
+    # the profile holds the tilt at 0, then climbs either way; its lowest point is the refit
+    assert [0.0, diagnosis["base"]["loss_px"]] in tilt["profile"] and any(t < 0 for t, _ in tilt["profile"])
+    for candidate in diagnosis["candidates"]:
+        assert min(loss for _, loss in candidate["profile"]) == candidate["loss_px"]
     oracle = json.loads((result / "sliding/oracle.json").read_text())
     assert 0 < oracle["loss_px"] and oracle["held_out_loss_px"] > 0
     assert "frames" in diagnosis["mismatch"]["sliding"]["words"]
-    assert (result / "sliding/diagnosis/report.html").read_text().count("What the model leaves out") == 1
+    report = (result / "sliding/diagnosis/report.html").read_text()
+    assert report.count("What the model leaves out") == 1 and "each candidate's profile" in report
     summary = (result / "summary.html").read_text()
     assert "Confusion table" in summary and "sliding" in summary and "plain" in summary
     assert "truth in the fit's simulation" in summary
