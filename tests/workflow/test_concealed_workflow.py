@@ -43,7 +43,7 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     assert oracle["loss_px"] > 0 and oracle["held_out_loss_px"] > 0
     assert "frames" in diagnosis["mismatch"]["sliding"]["words"]
     report = (result / "sliding/diagnosis/report.html").read_text()
-    assert report.count("What the model leaves out") == 1 and "each candidate's profile" in report
+    assert report.count("What the model leaves out") == 1 and "the law refitted there" in report
     summary = (result / "summary.html").read_text()
     assert "Confusion table" in summary and "sliding" in summary and "plain" in summary
     assert "truth in the fit's simulation" in summary
