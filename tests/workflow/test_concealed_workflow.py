@@ -46,5 +46,5 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     assert report.count("What the model leaves out") == 1 and "the law refitted there" in report
     summary = (result / "summary.html").read_text()
     assert "Confusion table" in summary and "sliding" in summary and "plain" in summary
-    assert "truth in the fit's simulation" in summary
+    assert "base fit / truth in the fit" in summary
     assert not list(result.glob("*/*/*.evaluations.json"))
