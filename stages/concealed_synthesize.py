@@ -1,4 +1,4 @@
-"""concealed_synthesize: the virtual lab films one concealed-effect dam break (finer simulation, the lab's renderer)
+"""concealed_synthesize: the virtual lab films one concealed-effect dam break (its own particles and renderer)
 and writes it as an imported setup, with the truth kept apart for scoring."""
 
 import numpy as np

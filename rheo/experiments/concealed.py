@@ -1,8 +1,9 @@
 """Concealed-effect dam breaks: a virtual lab films a dam break with one effect switched on that the fit's base model
 lacks (or none), and neither the fit nor the diagnosis is told which.
 
-The lab simulates on a finer grid, with more particles per cell, than the fit, and draws the material with the
-virtual lab's renderer (splats of another radius, supersampled), so the fit never sees its own model's output. The
+The lab simulates on the fit's grid with its own particles (more per cell) and draws the material with the virtual
+lab's renderer (splats of another radius, supersampled), so the fit never sees its own model's output; a finer lab
+grid would hide the effects that act through grid-set shear rates and strains (see the config schema's ``lab``). The
 recording takes the form of an imported ViRheometry setup (setup.json and masks.npz: silhouettes that include the
 container); its first frame comes one frame interval after the release, which the lab knows.
 """
