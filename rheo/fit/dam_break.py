@@ -32,8 +32,9 @@ MOVING_RATE = 0.1  # 1/s: slower particles count as at rest in the shear-rate ba
 def skin(camera, points: np.ndarray, spacing: float) -> np.ndarray:
     """The particles' silhouette with gaps up to about a particle spacing closed: a thin spreading layer leaves its
     particles farther apart than the discs that draw them."""
-    drawn = silhouette(camera, points, spacing)
-    depth = camera.project(points)[1]
+    projection = camera.project(np.asarray(points, dtype=np.float64))
+    drawn = silhouette(camera, points, spacing, projection)
+    depth = projection[1]
     gap = spacing * camera.K[0, 0] / float(np.median(depth[depth > 0])) if (depth > 0).any() else 0.0
     if gap < 1.0:
         return drawn

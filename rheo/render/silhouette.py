@@ -21,9 +21,11 @@ def _disc_kernel(radius: float) -> np.ndarray:
     return (x * x + y * y <= radius * radius + 0.25).astype(np.uint8)
 
 
-def coverage(camera: Camera, points: np.ndarray, spacing: float, supersample: int = 2) -> np.ndarray:
-    """The fraction (H, W) of every pixel covered by the particles' discs (radius from the median depth)."""
-    uv, depth = camera.project(np.asarray(points, dtype=np.float64))
+def coverage(camera: Camera, points: np.ndarray, spacing: float, supersample: int = 2,
+             projection: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """The fraction (H, W) of every pixel covered by the particles' discs (radius from the median depth);
+    ``projection``: the points' ``camera.project``, where the caller has it."""
+    uv, depth = projection or camera.project(np.asarray(points, dtype=np.float64))
     height, width = camera.height * supersample, camera.width * supersample
     # pixel centres at integers (OpenCV): sub-pixel (i, j) of pixel (u, v) has centre u + (j + 0.5) / s - 0.5
     sub = np.floor((uv + 0.5) * supersample).astype(int)
@@ -36,9 +38,10 @@ def coverage(camera: Camera, points: np.ndarray, spacing: float, supersample: in
     return cv2.resize(hits.astype(np.float32), (camera.width, camera.height), interpolation=cv2.INTER_AREA)
 
 
-def silhouette(camera: Camera, points: np.ndarray, spacing: float) -> np.ndarray:
+def silhouette(camera: Camera, points: np.ndarray, spacing: float,
+               projection: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """The particles' silhouette (H, W) bool: pixels at least half covered."""
-    return coverage(camera, points, spacing) >= 0.5
+    return coverage(camera, points, spacing, projection=projection) >= 0.5
 
 
 def distance_to(mask: np.ndarray) -> np.ndarray:
