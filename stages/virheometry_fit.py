@@ -44,9 +44,10 @@ def describe(x: np.ndarray) -> str:
 with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.threads) as evaluator:
 
     def joint(points: list[np.ndarray]) -> list[float]:
-        """The mean over the setups of each point's loss; all (point, setup) simulations side by side."""
-        results = evaluator.map([(name, x) for x in points for name in setups])
-        losses = [float(np.mean([r.loss for r in results[i * len(setups):(i + 1) * len(setups)]]))
+        """The mean over the setups of each point's loss; all (setup, point) simulations side by side, one setup's
+        after the other's, so that the workers end together where the setups take unequal times."""
+        results = evaluator.map([(name, x) for name in setups for x in points])
+        losses = [float(np.mean([results[k * len(points) + i].loss for k in range(len(setups))]))
                   for i in range(len(points))]
         for x, loss in zip(points, losses, strict=True):
             bar.update()

@@ -1,6 +1,7 @@
 """Warp kernels of one MLS-MPM step (APIC transfers, quadratic B-splines), generic over float32/float64.
 
-One step is ``eigen`` (eigen-decomposition of the trial strain, for the Hencky models) and ``reached_nodes`` (the box
+One step is ``eigen`` (eigen-decomposition of the trial strain for the Hencky models, by Jacobi rotations from the
+last step's basis) and ``reached_nodes`` (the box
 of nodes the particles reach), then three differentiated launches: ``p2g`` (constitutive update and particle-to-grid
 transfer), ``grid_update`` (gravity and boundaries, over that box) and ``g2p`` (grid-to-particle transfer and
 advection); about a plane of symmetry, ``mirror_fold`` adds the mirror images' share to the grid after ``p2g``; a
@@ -48,6 +49,10 @@ MAX_COLLIDERS = 8
 BOUND = 3  # grid nodes next to each domain face that act as slip walls; particles must stay inside them
 MIRROR_NODES = 3  # node planes folded on either side of a plane of symmetry: more than a particle's stencil reaches
 
+# Most cyclic Jacobi sweeps of an eigen-decomposition (convergence is quadratic: from the identity a strained b takes
+# three or four, from the last step's basis one or two).
+JACOBI_SWEEPS = 8
+
 # Below this relative gap two eigenvalues are treated as one and divided differences use a series.
 _SERIES_GAP = 1e-2
 
@@ -66,6 +71,8 @@ def build(scalar: type) -> SimpleNamespace:
     series_gap = scalar(_SERIES_GAP)
     tiny = scalar(1e-30)
     min_eig = scalar(1e-12)
+    # squared off-diagonal size, relative to the diagonal's, at which the Jacobi rotations stop: the scalar's precision
+    jacobi_tolerance = scalar(1e-12 if scalar is wp.float32 else 1e-26)
 
     @wp.func
     def log_divided(a: scalar, b: scalar) -> scalar:
@@ -124,11 +131,49 @@ def build(scalar: type) -> SimpleNamespace:
         return u
 
     @wp.func
-    def eigen(b: mat33):
-        Q = mat33()
-        d = vec3()
-        wp.eig3(b, Q, d)
-        return Q, vec3(wp.max(d[0], min_eig), wp.max(d[1], min_eig), wp.max(d[2], min_eig))
+    def jacobi_rotation(app: scalar, aqq: scalar, apq: scalar, arp: scalar, arq: scalar, vp: vec3, vq: vec3):
+        """The rotation of a symmetric matrix's basis columns ``vp``, ``vq`` that zeroes its entry a_pq: the new
+        a_pp, a_qq, a_rp, a_rq (r the third index), vp and vq, in the rounding-stable form of Numerical Recipes."""
+        if apq == zero:
+            return app, aqq, arp, arq, vp, vq
+        theta = (aqq - app) / (scalar(2.0) * apq)
+        t = one / (wp.abs(theta) + wp.sqrt(theta * theta + one))
+        if theta < zero:
+            t = -t
+        c = one / wp.sqrt(t * t + one)
+        s = t * c
+        tau = s / (one + c)
+        return (app - t * apq, aqq + t * apq, arp - s * (arq + tau * arp), arq + s * (arp - tau * arq),
+                vp - s * (vq + tau * vp), vq + s * (vp - tau * vq))
+
+    @wp.func
+    def eigen(b: mat33, guess: mat33):
+        """b = Q diag(l) Q^T (b symmetric), by cyclic Jacobi rotations from the orthonormalised columns of ``guess``
+        until the off-diagonal part is below the scalar's precision. From the last step's Q, b has barely turned and
+        one or two sweeps suffice."""
+        c0 = wp.normalize(vec3(guess[0, 0], guess[1, 0], guess[2, 0]))
+        c1 = vec3(guess[0, 1], guess[1, 1], guess[2, 1])
+        c1 = wp.normalize(c1 - wp.dot(c0, c1) * c0)
+        c2 = wp.cross(c0, c1)
+        b0 = b * c0
+        b1 = b * c1
+        b2 = b * c2
+        a00 = wp.dot(c0, b0)
+        a11 = wp.dot(c1, b1)
+        a22 = wp.dot(c2, b2)
+        a01 = wp.dot(c0, b1)
+        a02 = wp.dot(c0, b2)
+        a12 = wp.dot(c1, b2)
+        for _sweep in range(JACOBI_SWEEPS):
+            if a01 * a01 + a02 * a02 + a12 * a12 <= jacobi_tolerance * (a00 * a00 + a11 * a11 + a22 * a22):
+                break
+            a00, a11, a02, a12, c0, c1 = jacobi_rotation(a00, a11, a01, a02, a12, c0, c1)
+            a01 = zero
+            a11, a22, a01, a02, c1, c2 = jacobi_rotation(a11, a22, a12, a01, a02, c1, c2)
+            a12 = zero
+            a00, a22, a01, a12, c0, c2 = jacobi_rotation(a00, a22, a02, a01, a12, c0, c2)
+            a02 = zero
+        return wp.matrix_from_cols(c0, c1, c2), vec3(wp.max(a00, min_eig), wp.max(a11, min_eig), wp.max(a22, min_eig))
 
     @wp.func
     def yield_scale(e: vec3, mu: scalar, tau_y: scalar, K: scalar, n: scalar, dt: scalar, model: int) -> scalar:
@@ -280,18 +325,19 @@ def build(scalar: type) -> SimpleNamespace:
         """The constitutive update alone, for tests and diagnostics."""
         p = wp.tid()
         Ft = (wp.identity(3, dtype=scalar) + dt * C[p]) * F[p]
-        Q, l = eigen(Ft * wp.transpose(Ft))
+        Q, l = eigen(Ft * wp.transpose(Ft), wp.identity(3, dtype=scalar))
         F_new, tau = constitutive(F[p], C[p], mat, model, dt, Q, l, yield_factor(structure, p, thixotropy))
         F_out[p] = F_new
         tau_out[p] = tau
 
     @wp.kernel
-    def eigen_kernel(F: wp.array(dtype=mat33), C: wp.array(dtype=mat33), dt: scalar, q_out: wp.array(dtype=mat33),
-                     l_out: wp.array(dtype=vec3)):
-        """Eigen-decomposition of the trial b = Ft Ft^T for the Hencky models; launched outside the tape."""
+    def eigen_kernel(F: wp.array(dtype=mat33), C: wp.array(dtype=mat33), dt: scalar, guess: wp.array(dtype=mat33),
+                     q_out: wp.array(dtype=mat33), l_out: wp.array(dtype=vec3)):
+        """Eigen-decomposition of the trial b = Ft Ft^T for the Hencky models, from the basis ``guess`` (the last
+        step's; ``q_out`` itself may be passed); launched outside the tape."""
         p = wp.tid()
         Ft = (wp.identity(3, dtype=scalar) + dt * C[p]) * F[p]
-        Q, l = eigen(Ft * wp.transpose(Ft))
+        Q, l = eigen(Ft * wp.transpose(Ft), guess[p])
         q_out[p] = Q
         l_out[p] = l
 

@@ -289,6 +289,8 @@ class _Buffers:
         self.structure = [wp.zeros(n, dtype=s) for _ in range(states)]
         # eigen-decompositions of the trial strain, inputs of the plastic return (constants for the tape)
         self.eig_q = [wp.zeros(n, dtype=k.mat33) for _ in range(grids)]
+        # the first step's guess of the decomposition's basis (a rollout starts from it, whatever ran before)
+        self.identity = wp.array(np.broadcast_to(np.eye(3), (n, 3, 3)), dtype=k.mat33)
         self.eig_l = [wp.zeros(n, dtype=k.vec3) for _ in range(grids)]
         self.m = alloc(grids, (res, res, res), s)
         self.mv = alloc(grids, (res, res, res), k.vec3)
@@ -365,7 +367,9 @@ class _Run:
         bounds = self.reached.numpy()
         low, high = bounds[:3], bounds[3:]
         if self.material.model in (kernels.MODEL_HERSCHEL_BULKLEY, kernels.MODEL_PLASTICINE):
-            self._launch("eigen", i, lambda: (k.eigen, len(x), [F, C, s(self.dt)], [eig_q, eig_l]))
+            # from the last step's basis: in place without gradients, else the last step's own array
+            guess = eig_q if not self.requires_grad else buf.eig_q[grid - 1] if grid > 0 else buf.identity
+            self._launch("eigen", i, lambda: (k.eigen, len(x), [F, C, s(self.dt), guess], [eig_q, eig_l]))
             if physics.thixotropy > 0.0:
                 self._launch("structure_update", i, lambda: (
                     k.structure_update, len(x), [F, C, eig_l, self.mat, self.material.model, s(self.dt),
@@ -436,6 +440,7 @@ class _Run:
         self.snapshots: dict[int, tuple[torch.Tensor, ...]] = {}
         self._load(self.buf, state0)
         self.buf.structure[0].zero_()
+        wp.copy(self.buf.eig_q[0], self.buf.identity)
         bar = tqdm(total=self.frames, desc="simulate", unit="frame", leave=False) if self.progress else None
         try:
             for start in range(0, self.steps, self.chunk):

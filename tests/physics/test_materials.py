@@ -123,3 +123,26 @@ def test_parameters_round_trip_through_kernel_layout():
     vec = m.kernel_vector(m.parameters(torch.float64))
     assert vec[kn.P_TAU_Y] == 1.0 and vec[kn.P_K] == 2.0 and vec[kn.P_N] == 0.5
     assert vec[kn.P_MU] == 4.0 and vec[kn.P_LAM] == 5.0 and vec[kn.P_RHO] == 900.0
+
+
+@pytest.mark.parametrize("dtype, tolerance", [(wp.float32, 2e-5), (wp.float64, 1e-12)])
+def test_eigen_decomposition_matches_numpy_from_a_cold_or_a_warm_basis(dtype, tolerance):
+    """The Jacobi eigen-decomposition of b = F F^T, from the identity or from a nearby matrix's basis (the last step's,
+    in a rollout), against numpy; repeated eigenvalues (the undeformed material, a uniaxial strain) included."""
+    k = kn.build(dtype)
+    rng = np.random.default_rng(0)
+    F = np.eye(3) + 0.05 * rng.standard_normal((500, 3, 3))
+    rotation, _ = np.linalg.qr(rng.standard_normal((3, 3)))
+    uniaxial = rotation @ np.diag([1.0, 1.0, 1.1]) @ rotation.T
+    F = np.concatenate([F, np.eye(3)[None], uniaxial[None]])
+    b = F @ np.swapaxes(F, 1, 2)
+    nearby = F + 0.003 * rng.standard_normal(F.shape)
+    warm = np.linalg.eigh(nearby @ np.swapaxes(nearby, 1, 2))[1]
+    for guess in (np.broadcast_to(np.eye(3), F.shape), warm):
+        q, lam = wp.array(guess, dtype=k.mat33), wp.zeros(len(F), dtype=k.vec3)
+        wp.launch(k.eigen, len(F), inputs=[wp.array(F, dtype=k.mat33), wp.zeros(len(F), dtype=k.mat33),
+                                           dtype(0.0), q], outputs=[q, lam])
+        Q, values = q.numpy().astype(np.float64), lam.numpy().astype(np.float64)
+        np.testing.assert_allclose(np.swapaxes(Q, 1, 2) @ Q, np.broadcast_to(np.eye(3), Q.shape), atol=10 * tolerance)
+        np.testing.assert_allclose(Q @ (values[:, :, None] * np.swapaxes(Q, 1, 2)), b, atol=tolerance * 10)
+        np.testing.assert_allclose(np.sort(values, axis=1), np.linalg.eigvalsh(b), atol=tolerance * 10)

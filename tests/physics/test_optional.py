@@ -65,11 +65,11 @@ def _simple_shear(thixotropy: float, rate: float = 2.0, dt: float = 1e-3, steps:
     F = wp.array(np.eye(3)[None], dtype=k.mat33)
     C = wp.array(np.array([[[0.0, rate, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]]), dtype=k.mat33)
     structure = wp.zeros(1, dtype=wp.float64)
-    q, lam_b = wp.zeros(1, dtype=k.mat33), wp.zeros(1, dtype=k.vec3)
+    q, lam_b = wp.array(np.eye(3)[None], dtype=k.mat33), wp.zeros(1, dtype=k.vec3)  # q: the last step's basis
     strain, stress = [], []
     for _ in range(steps):
         F_out, tau_out, next_structure = wp.zeros_like(F), wp.zeros_like(F), wp.zeros_like(structure)
-        wp.launch(k.eigen, 1, inputs=[F, C, wp.float64(dt)], outputs=[q, lam_b])
+        wp.launch(k.eigen, 1, inputs=[F, C, wp.float64(dt), q], outputs=[q, lam_b])
         wp.launch(k.structure_update, 1, inputs=[F, C, lam_b, mat, material.model, wp.float64(dt),
                                                  wp.float64(thixotropy), structure], outputs=[next_structure])
         wp.launch(k.return_mapping, 1, inputs=[F, C, mat, material.model, wp.float64(dt), structure,
