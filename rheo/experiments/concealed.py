@@ -4,8 +4,10 @@ lacks (or none), and neither the fit nor the diagnosis is told which.
 The lab simulates on the fit's grid with its own particles (more per cell) and draws the material with the virtual
 lab's renderer (splats of another radius, supersampled), so the fit never sees its own model's output; a finer lab
 grid would hide the effects that act through grid-set shear rates and strains (see the config schema's ``lab``). The
-recording takes the form of an imported ViRheometry setup (setup.json and masks.npz: silhouettes that include the
-container); its first frame comes one frame interval after the release, which the lab knows.
+recording takes the form of imported ViRheometry setups (setup.json and masks.npz: silhouettes that include the
+container), one per channel geometry of the scene, as the real recordings come in pairs (a low and a tall column):
+one geometry alone lets a Bingham law mimic shear thinning. The first frame comes one frame interval after the
+release, which the lab knows.
 """
 
 from __future__ import annotations
@@ -25,10 +27,12 @@ WALL = 0.003  # m: the channel's walls' thickness
 WALL_HEIGHT = 0.2  # m
 
 
-def channel(scene: dict, name: str, masks: list[np.ndarray] | None = None) -> Setup:
-    """The scene's channel (``height``, ``width``, ``depth`` in m, ``walls`` and ``floor`` contact laws,
-    ``camera``, ``fps``, ``density``) as a setup, with ``masks`` if given."""
-    height, width, depth = scene["height"], scene["width"], scene["depth"]
+def channel(scene: dict, index: int, name: str, masks: list[np.ndarray] | None = None) -> Setup:
+    """The scene's channel ``index`` (1-based: its ``setups[index - 1]``'s material ``height`` and ``width``; the
+    scene's ``depth`` in m, ``walls`` and ``floor`` contact laws, ``camera``, ``fps``, ``density``) as a setup named
+    ``{name}_{index}``, with ``masks`` if given."""
+    geometry = scene["setups"][index - 1]
+    height, width, depth = geometry["height"], geometry["width"], scene["depth"]
     walls = [StaticBox((-1.0, -0.01, -1.0), (1.0, 0.0, 1.0), scene["floor"]),
              StaticBox((-WALL, 0.0, 0.0), (0.0, WALL_HEIGHT, depth), scene["walls"]),
              StaticBox((-WALL, 0.0, -WALL), (width, WALL_HEIGHT, 0.0), scene["walls"]),
@@ -36,7 +40,7 @@ def channel(scene: dict, name: str, masks: list[np.ndarray] | None = None) -> Se
     cam = scene["camera"]
     camera = Camera(cam["width"], cam["height"], intrinsics(cam["width"], cam["height"], cam["fov_deg"]),
                     np.zeros(5), look_at(cam["eye"], cam["look_at"]))
-    return Setup(folder=Path(name), material=name, index=1, height=height, width=width, depth=depth,
+    return Setup(folder=Path(f"{name}_{index}"), material=name, index=index, height=height, width=width, depth=depth,
                  density=scene["density"], walls=walls, camera=camera, masks=list(masks or []), start_point=None,
                  fps=scene["fps"])
 
@@ -52,12 +56,17 @@ def concealed_truth(case: dict, base: dict[str, float]) -> tuple[dict[str, float
     return CANDIDATES[case["effect"]].apply(case["magnitude"], law, Effects())
 
 
-def film(scene: dict, lab: dict, name: str, law: dict[str, float], effects: Effects,
+def film(scene: dict, index: int, lab: dict, name: str, law: dict[str, float], effects: Effects,
          mu: float, lam: float) -> Setup:
-    """The lab's recording: ``scene["frames"]`` silhouettes, the first one frame interval after the release,
-    simulated at the ``lab``'s resolution (``cells_per_height``, ``cells_across``, ``particles_per_cell``;
-    ``reach``: how far past the gate (m) the simulated floor extends)."""
-    setup = channel(scene, name)
+    """The lab's recording of the scene's channel ``index``: ``scene["frames"]`` silhouettes, the first one frame
+    interval after the release, simulated at the ``lab``'s resolution (``cells_per_height``, ``cells_across``,
+    ``particles_per_cell``; ``reach``: how far past the gate (m) the simulated floor extends)."""
+    setup = channel(scene, index, name)
+    uv, depth = setup.camera.project(setup.cuboid_corners())
+    if (depth <= 0).any() or (uv < 0).any() or (uv[:, 0] > setup.camera.width).any() or (
+            uv[:, 1] > setup.camera.height).any():
+        raise ValueError(f"concealed scene, setup {index}: the material ({setup.height:g} x {setup.width:g} m) "
+                         "leaves the camera's view")
     lab_scene = dam_break_scene(setup, lab["cells_per_height"], lab["cells_across"], lab["particles_per_cell"],
                                 reach=lab["reach"])
     material = HerschelBulkley(**law, mu=mu, lam=lam, density=setup.density)

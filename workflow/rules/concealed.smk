@@ -23,6 +23,12 @@ def concealed_case(name: str) -> dict:
     return case
 
 
+def concealed_recordings(kind: str) -> list[str]:
+    """The paths of a case's recordings (``kind``: setup.json or masks.npz), one per channel of the scene."""
+    return [f"results/concealed/{{case}}/recording/{k}/{kind}"
+            for k in range(1, len(config["concealed"]["scene"]["setups"]) + 1)]
+
+
 def concealed_simulation() -> dict:
     """The fit's simulation: the real dam breaks' grid and elastic constants, the first frame one frame interval
     after the release (the lab knows it), every few frames held out."""
@@ -39,8 +45,8 @@ rule concealed_synthesize:
     input:
         lambda w: str(Path(config["concealed"]["cases"]) / f"{w.case}.yaml"),
     output:
-        setup="results/concealed/{case}/recording/setup.json",
-        masks="results/concealed/{case}/recording/masks.npz",
+        setups=concealed_recordings("setup.json"),
+        masks=concealed_recordings("masks.npz"),
         truth="results/concealed/{case}/truth.json",
     log:
         "logs/concealed/{case}/synthesize.log",
@@ -60,8 +66,8 @@ rule concealed_synthesize:
 
 rule concealed_fit:
     input:
-        setups=["results/concealed/{case}/recording/setup.json"],
-        masks=["results/concealed/{case}/recording/masks.npz"],
+        setups=concealed_recordings("setup.json"),
+        masks=concealed_recordings("masks.npz"),
     output:
         params="results/concealed/{case}/fit/params.json",
         history="results/concealed/{case}/fit/history.csv",
@@ -83,8 +89,8 @@ rule concealed_fit:
 rule concealed_oracle:
     input:
         truth="results/concealed/{case}/truth.json",
-        setup="results/concealed/{case}/recording/setup.json",
-        masks="results/concealed/{case}/recording/masks.npz",
+        setups=concealed_recordings("setup.json"),
+        masks=concealed_recordings("masks.npz"),
     output:
         "results/concealed/{case}/oracle.json",
     log:

@@ -33,8 +33,8 @@ rule virheometry_diagnose:
 rule concealed_diagnose:
     input:
         fit="results/concealed/{case}/fit/params.json",
-        setups=["results/concealed/{case}/recording/setup.json"],
-        masks=["results/concealed/{case}/recording/masks.npz"],
+        setups=concealed_recordings("setup.json"),
+        masks=concealed_recordings("masks.npz"),
     output:
         diagnosis="results/concealed/{case}/diagnosis/diagnosis.json",
         maps="results/concealed/{case}/diagnosis/maps.png",
