@@ -1,7 +1,9 @@
 """virheometry_fit: tau_y, K and n (or tau_y and K at a fixed flow index) of one material from its dam breaks (all
 its setups jointly, or one), with the first frame's time after the release found for each setup. The survey's
 points and the profile's run on every core; the searches from the survey's best points run side by side, each
-evaluation simulating the setups side by side. Every evaluation is stored, so an interrupted fit resumes."""
+evaluation simulating the setups side by side; a walk along the valley the equally good materials spread in widens
+the intervals where the parameters trade against each other. Every evaluation is stored, so an interrupted fit
+resumes."""
 
 import csv
 import time
@@ -15,13 +17,14 @@ from rheo.diagnose.candidates import Law
 from rheo.fit.dam_break import MOVING_RATE, RESULT_KEYS, comparisons, setup_files, shear_rate_band
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, multistart_search, start_step, survey_points
-from rheo.fit.uncertainty import profile_intervals, profile_points, tolerated
+from rheo.fit.uncertainty import Interval, profile_intervals, profile_points, ridge_walk, tolerated
 from rheo.io import write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import frames_figure
 from rheo.stage import inputs_key, setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
+RIDGE_STEP = 1.5  # the walk along the valley's steps, in profile steps
 log = setup_logging(smk.log[0])
 started = time.time()
 settings, simulation = smk.params.settings, smk.params.simulation
@@ -68,6 +71,18 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
     evaluations.evaluate_many(joint, profile_points(x, range(len(names)), settings["profile_step"]), "profile")
     x, loss, intervals, evidence = profile_intervals(evaluate, x, range(len(names)), names, settings["profile_step"],
                                                      settings["tolerance"], (low, high))
+    spread = tolerated([r["x"] for r in evaluations.records], [r["loss"] for r in evaluations.records],
+                       settings["tolerance"])
+    if spread.direction is not None:  # along the valley the equally good materials spread in
+        ridge_walk(lambda points: evaluations.evaluate_many(joint, points, "ridge"), x, spread.direction,
+                   RIDGE_STEP * settings["profile_step"], (1.0 + settings["tolerance"]) * loss, (low, high))
+        best = min(evaluations.records, key=lambda r: r["loss"])
+        if best["loss"] < loss:
+            log.info("the walk along the valley found a better material: loss %.5g px, %s", best["loss"],
+                     describe(np.array(best["x"])))
+            x, loss = np.array(best["x"]), best["loss"]
+            intervals = {n: Interval(float(np.exp(v)), min(i.low, float(np.exp(v))), max(i.high, float(np.exp(v))))
+                         for (n, i), v in zip(intervals.items(), x, strict=True)}
     details = dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))
 bar.close()
 
