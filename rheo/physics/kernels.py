@@ -1,16 +1,15 @@
 """Warp kernels of one MLS-MPM step (APIC transfers, quadratic B-splines), generic over float32/float64.
 
 One step is ``eigen`` (eigen-decomposition of the trial strain for the Hencky models, by Jacobi rotations from the
-last step's basis) and ``reached_nodes`` (the box
-of nodes the particles reach), then three differentiated launches: ``p2g`` (constitutive update and particle-to-grid
-transfer), ``grid_update`` (gravity and boundaries, over that box) and ``g2p`` (grid-to-particle transfer and
-advection); about a plane of symmetry, ``mirror_fold`` adds the mirror images' share to the grid after ``p2g``; a
-thixotropic material's ``structure_update`` accumulates each particle's plastic shear strain (``OptionalPhysics``:
-it lowers the yield stress in ``p2g``; air drag and wall adhesion act in ``grid_update``). Every
-input a loss may depend on (particle state, material parameters, boundary parameters) is a Warp array, so Warp's
-generated adjoints give the gradients. The plastic return on Hencky strain has a hand-written adjoint (divided
-differences of the eigenvalues) that stays finite at repeated eigenvalues (undeformed material) and needs no second
-decomposition in the backward pass.
+last step's basis) and ``reached_nodes`` (the box of nodes the particles reach), then three differentiated launches:
+``p2g`` (constitutive update and particle-to-grid transfer), ``grid_update`` (gravity and boundaries, over that box)
+and ``g2p`` (grid-to-particle transfer and advection); about a plane of symmetry, ``mirror_fold`` adds the mirror
+images' share to the grid after ``p2g``; a thixotropic material's ``structure_update`` accumulates each particle's
+plastic shear strain (``OptionalPhysics``: it lowers the yield stress in ``p2g``; air drag and wall adhesion act in
+``grid_update``). Every input a loss may depend on (particle state, material parameters, boundary parameters) is a
+Warp array, so Warp's generated adjoints give the gradients. The plastic return on Hencky strain has a hand-written
+adjoint (divided differences of the eigenvalues) that stays finite at repeated eigenvalues (undeformed material) and
+needs no second decomposition in the backward pass.
 
 Stress conventions: Kirchhoff stress ``tau``; deviatoric norm ``|s|``; equivalent shear stress ``|s| / sqrt(2)``,
 which is what ``tau_y`` and the Herschel-Bulkley law refer to (``tau = tau_y + K gamma_dot^n`` in simple shear).
