@@ -1,7 +1,7 @@
 """concealed_oracle: the concealed truth (its law and effect) in the fit's own simulation, compared with the
 recordings (the mean over the setups, as the fit's loss): about the least loss any fit with the right effect can
-reach. Where the base fit already reaches below
-it, the recording does not show the effect at the fit's resolution, and no diagnosis can name it."""
+reach. Where the base fit already reaches below it, the recordings do not show the effect at the fit's resolution,
+and no diagnosis can name it."""
 
 import numpy as np
 

@@ -6,6 +6,7 @@ the intervals where the parameters trade against each other. Every evaluation is
 resumes."""
 
 import csv
+import dataclasses
 import time
 from functools import partial
 from pathlib import Path
@@ -17,7 +18,7 @@ from rheo.diagnose.candidates import Law
 from rheo.fit.dam_break import MOVING_RATE, RESULT_KEYS, comparisons, setup_files, shear_rate_band
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, multistart_search, start_step, survey_points
-from rheo.fit.uncertainty import Interval, profile_intervals, profile_points, ridge_walk, tolerated
+from rheo.fit.uncertainty import Tolerated, profile_intervals, profile_points, ridge_walk, tolerated
 from rheo.io import write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import frames_figure
@@ -38,6 +39,12 @@ evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
                             inputs_key([settings, simulation], [*smk.input.setups, *smk.input.masks]),
                             one_objective=True)
 bar = tqdm(desc=f"{output.parent.parent.name} {output.parent.name}", unit="evaluation")
+
+
+def equally_good() -> Tolerated:
+    """The materials evaluated so far within the tolerance of the best."""
+    return tolerated([r["x"] for r in evaluations.records], [r["loss"] for r in evaluations.records],
+                     settings["tolerance"])
 
 
 def describe(x: np.ndarray) -> str:
@@ -71,23 +78,22 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
     evaluations.evaluate_many(joint, profile_points(x, range(len(names)), settings["profile_step"]), "profile")
     x, loss, intervals, evidence = profile_intervals(evaluate, x, range(len(names)), names, settings["profile_step"],
                                                      settings["tolerance"], (low, high))
-    spread = tolerated([r["x"] for r in evaluations.records], [r["loss"] for r in evaluations.records],
-                       settings["tolerance"])
-    if spread.direction is not None:  # along the valley the equally good materials spread in
-        ridge_walk(lambda points: evaluations.evaluate_many(joint, points, "ridge"), x, spread.direction,
+    direction = equally_good().direction
+    if direction is not None:  # along the valley the equally good materials spread in
+        ridge_walk(lambda points: evaluations.evaluate_many(joint, points, "ridge"), x, direction,
                    RIDGE_STEP * settings["profile_step"], (1.0 + settings["tolerance"]) * loss, (low, high))
         best = min(evaluations.records, key=lambda r: r["loss"])
         if best["loss"] < loss:
             log.info("the walk along the valley found a better material: loss %.5g px, %s", best["loss"],
                      describe(np.array(best["x"])))
+            # its interval bounds come from the materials within the tolerance, this one among them
             x, loss = np.array(best["x"]), best["loss"]
-            intervals = {n: Interval(float(np.exp(v)), min(i.low, float(np.exp(v))), max(i.high, float(np.exp(v))))
+            intervals = {n: dataclasses.replace(i, value=float(np.exp(v)))
                          for (n, i), v in zip(intervals.items(), x, strict=True)}
     details = dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))
 bar.close()
 
-spread = tolerated([r["x"] for r in evaluations.records], [r["loss"] for r in evaluations.records],
-                   settings["tolerance"])
+spread = equally_good()
 ranges = ", ".join(f"{n} {np.exp(lo):.3g}-{np.exp(hi):.3g}" for n, (lo, hi) in zip(names, spread.ranges, strict=True))
 if spread.ridge:
     log.warning("the recordings leave the law on a ridge: %d evaluated materials within the tolerance span %s%s",

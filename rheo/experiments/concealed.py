@@ -62,9 +62,7 @@ def film(scene: dict, index: int, lab: dict, name: str, law: dict[str, float], e
     interval after the release, simulated at the ``lab``'s resolution (``cells_per_height``, ``cells_across``,
     ``particles_per_cell``; ``reach``: how far past the gate (m) the simulated floor extends)."""
     setup = channel(scene, index, name)
-    uv, depth = setup.camera.project(setup.cuboid_corners())
-    if (depth <= 0).any() or (uv < 0).any() or (uv[:, 0] > setup.camera.width).any() or (
-            uv[:, 1] > setup.camera.height).any():
+    if not setup.camera.pixels(setup.cuboid_corners())[1].all():
         raise ValueError(f"concealed scene, setup {index}: the material ({setup.height:g} x {setup.width:g} m) "
                          "leaves the camera's view")
     lab_scene = dam_break_scene(setup, lab["cells_per_height"], lab["cells_across"], lab["particles_per_cell"],

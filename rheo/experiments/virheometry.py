@@ -189,6 +189,14 @@ def read_masks(folder: Path, width: int, height: int) -> list[np.ndarray]:
     return masks
 
 
+def setup_folders(data: str | Path, material: str) -> list[Path]:
+    """A material's setup folders (ref_<material>_<H>_<W>_<k>) in ``data``, by setup index k."""
+    folders = sorted(Path(data).glob(f"ref_{material}_*_*_*"), key=lambda p: p.name.rsplit("_", 1)[1])
+    if not folders:
+        raise ValueError(f"{data}: no setup folders ref_{material}_<H>_<W>_<k>")
+    return folders
+
+
 def read_setup(folder: str | Path, scale: float = 1.0) -> Setup:
     """A setup folder; the camera and masks at ``scale`` times the window size (the PNGs are at twice it)."""
     folder = Path(folder)

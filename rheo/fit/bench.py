@@ -24,7 +24,8 @@ import yaml
 from snakemake.utils import validate
 
 from rheo.diagnose.candidates import Law
-from rheo.fit.dam_break import comparisons, setup_files
+from rheo.experiments.virheometry import setup_folders
+from rheo.fit.dam_break import RESULT_KEYS, comparisons, setup_files
 from rheo.fit.parallel import Evaluator
 from rheo.io import write_json_atomic
 
@@ -38,15 +39,12 @@ def settings(config_file: Path) -> dict:
     return config
 
 
-def fitted_law(params: dict) -> np.ndarray:
-    return np.log([params[key]["value"] for key in ("tau_y_Pa", "K_Pa_s_n", "n")])
-
-
 def measure_material(material: str, results: Path, benchmarks: Path, simulation: dict, workers: int) -> dict:
-    folders = sorted((results / "setups").glob(f"ref_{material}_*"), key=lambda p: p.name.rsplit("_", 1)[1])
+    folders = setup_folders(results / "setups", material)
     setups = setup_files([str(f / "setup.json") for f in folders], [str(f / "masks.npz") for f in folders])
     fit = results / material / "fit"
-    x = fitted_law(json.loads((fit / "params.json").read_text()))
+    params = json.loads((fit / "params.json").read_text())
+    x = np.log([params[key]["value"] for key in RESULT_KEYS.values()])
     with Evaluator(partial(comparisons, setups, simulation, Law()), workers=workers) as evaluator:
         evaluator.map([(name, x) for name in setups])  # compile, warm up
         start = time.perf_counter()

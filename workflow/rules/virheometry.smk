@@ -1,5 +1,7 @@
 # ViRheometry's real dam-break recordings: each setup folder imported into SI units, its camera checked.
 
+from rheo.experiments.virheometry import setup_folders
+
 
 def virheometry_folder(setup: str) -> Path:
     folder = Path(config["virheometry"]["data"]) / setup
@@ -30,11 +32,7 @@ rule virheometry_import:
 
 def virheometry_setups(material: str) -> list[str]:
     """The setup folders of a material, by setup index."""
-    folders = sorted(Path(config["virheometry"]["data"]).glob(f"ref_{material}_*_*_*"),
-                     key=lambda p: p.name.rsplit("_", 1)[1])
-    if not folders:
-        raise ValueError(f"{config['virheometry']['data']}: no setup folders ref_{material}_<H>_<W>_<k>")
-    return [p.name for p in folders]
+    return [p.name for p in setup_folders(config["virheometry"]["data"], material)]
 
 
 def fitted_setups(material: str, fit: str) -> list[str]:
