@@ -1,12 +1,11 @@
 """virheometry_fit: tau_y, K and n (or tau_y and K at a fixed flow index) of one material from its dam breaks (all
-its setups jointly, or one), with the first frame's time after the release found for each setup. The survey's
-points and the profile's run on every core; the searches from the survey's best points run side by side, each
-evaluation simulating the setups side by side; a walk along the valley the equally good materials spread in widens
-the intervals where the parameters trade against each other. Every evaluation is stored, so an interrupted fit
-resumes."""
+its setups jointly, or one), with the first frame's time after the release found for each setup. A survey of the
+box, simplex searches from its best points side by side, then rounds of a composite design around the best, each
+followed by a quadratic fitted to the squared losses (rheo.fit.surface): its lowest point is the estimate and the
+region where it stays within the tolerance gives the intervals. Each evaluation simulates the setups side by side,
+the survey's and the designs' points two at a time. Every evaluation is stored, so an interrupted fit resumes."""
 
 import csv
-import dataclasses
 import time
 from functools import partial
 from pathlib import Path
@@ -17,15 +16,15 @@ from tqdm.auto import tqdm
 from rheo.diagnose.candidates import Law
 from rheo.fit.dam_break import MOVING_RATE, RESULT_KEYS, comparisons, setup_files, shear_rate_band
 from rheo.fit.parallel import Evaluator
-from rheo.fit.search import EvaluationLog, multistart_search, start_step, survey_points
-from rheo.fit.uncertainty import Tolerated, profile_intervals, profile_points, ridge_walk, tolerated
+from rheo.fit.search import EvaluationLog, start_searches, start_step, survey_points
+from rheo.fit.surface import describe_surface, refine
+from rheo.fit.uncertainty import Interval, tolerated
 from rheo.io import write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import frames_figure
 from rheo.stage import inputs_key, setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-RIDGE_STEP = 1.5  # the walk along the valley's steps, in profile steps
 log = setup_logging(smk.log[0])
 started = time.time()
 settings, simulation = smk.params.settings, smk.params.simulation
@@ -41,10 +40,9 @@ evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
 bar = tqdm(desc=f"{output.parent.parent.name} {output.parent.name}", unit="evaluation")
 
 
-def equally_good() -> Tolerated:
-    """The materials evaluated so far within the tolerance of the best."""
-    return tolerated([r["x"] for r in evaluations.records], [r["loss"] for r in evaluations.records],
-                     settings["tolerance"])
+def evaluated() -> tuple[np.ndarray, np.ndarray]:
+    """Every point evaluated so far and its loss."""
+    return np.array([r["x"] for r in evaluations.records]), np.array([r["loss"] for r in evaluations.records])
 
 
 def describe(x: np.ndarray) -> str:
@@ -73,27 +71,29 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
     losses = np.concatenate([evaluations.evaluate_many(joint, list(points[i:i + chunk]), "survey")
                              for i in range(0, len(points), chunk)])
     starts = points[np.argsort(losses, kind="stable")[:settings["starts"]]]
-    x, loss = multistart_search(evaluate, list(starts), start_step((high - low).min(), settings["samples"], len(names)),
-                                settings["step"], settings["evaluations"], (low, high), side_by_side=True)
-    evaluations.evaluate_many(joint, profile_points(x, range(len(names)), settings["profile_step"]), "profile")
-    x, loss, intervals, evidence = profile_intervals(evaluate, x, range(len(names)), names, settings["profile_step"],
-                                                     settings["tolerance"], (low, high))
-    direction = equally_good().direction
-    if direction is not None:  # along the valley the equally good materials spread in
-        ridge_walk(lambda points: evaluations.evaluate_many(joint, points, "ridge"), x, direction,
-                   RIDGE_STEP * settings["profile_step"], (1.0 + settings["tolerance"]) * loss, (low, high))
-        best = min(evaluations.records, key=lambda r: r["loss"])
-        if best["loss"] < loss:
-            log.info("the walk along the valley found a better material: loss %.5g px, %s", best["loss"],
-                     describe(np.array(best["x"])))
-            # its interval bounds come from the materials within the tolerance, this one among them
-            x, loss = np.array(best["x"]), best["loss"]
-            intervals = {n: dataclasses.replace(i, value=float(np.exp(v)))
-                         for (n, i), v in zip(intervals.items(), x, strict=True)}
+    x, _ = start_searches(evaluate, list(starts), start_step((high - low).min(), settings["samples"], len(names)),
+                          settings["evaluations"] // len(starts), (low, high), side_by_side=True)
+    refinement = refine(lambda points: evaluations.evaluate_many(joint, points, "surface"), x,
+                        settings["half_width"], (low, high), evaluated, settings["rounds"])
+    x, loss = refinement.x, evaluate(refinement.x, "estimate")
+    best = min(evaluations.records, key=lambda r: r["loss"])
+    if loss > (1.0 + settings["tolerance"]) * best["loss"]:
+        log.warning("the surface's lowest point loses %.5g px, more than the tolerance above the best evaluated "
+                    "(%.5g px): the best evaluated is the estimate", loss, best["loss"])
+        x, loss = np.array(best["x"]), best["loss"]
+    extents = refinement.surface.extents(settings["tolerance"])
+    if extents is None:
+        log.warning("the loss's surface is not convex: the intervals are the equally good materials' ranges")
+        extents = np.column_stack([x, x])
+    extents = np.column_stack([np.clip(extents[:, 0], low, x), np.clip(extents[:, 1], x, high)])
+    intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)))
+                 for n, v, (lo, hi) in zip(names, x, extents, strict=True)}
+    evidence = describe_surface(refinement.surface, names) | {"half_width_log": refinement.half_width,
+                                                              "rounds": refinement.rounds}
     details = dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))
 bar.close()
 
-spread = equally_good()
+spread = tolerated(*evaluated(), settings["tolerance"])
 ranges = ", ".join(f"{n} {np.exp(lo):.3g}-{np.exp(hi):.3g}" for n, (lo, hi) in zip(names, spread.ranges, strict=True))
 if spread.ridge:
     log.warning("the recordings leave the law on a ridge: %d evaluated materials within the tolerance span %s%s",

@@ -158,19 +158,16 @@ def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float | np.ndarr
     return result.x, float(result.fun)
 
 
-def multistart_search(evaluate: Evaluate, starts: Sequence[np.ndarray], start_step: float, step: float,
-                      evaluations: int, box: tuple[np.ndarray, np.ndarray] | None = None,
-                      side_by_side: bool = False) -> tuple[np.ndarray, float]:
-    """Nelder-Mead from each of ``starts`` (initial simplex ``start_step``) with half of ``evaluations`` shared among
-    them, then from the best point found with a fresh simplex of ``step`` and the remaining evaluations.
-    ``side_by_side``: the searches from the starts run in threads at the same time (for an ``evaluate`` that hands
-    its work to other processes and is thread-safe); the result is that of running them one after another."""
-    if len(starts) == 1:
-        return simplex_search(evaluate, starts[0], step, evaluations, "full", box=box)
-    each = evaluations // (2 * len(starts))
+def start_searches(evaluate: Evaluate, starts: Sequence[np.ndarray], step: float, evaluations: int,
+                   box: tuple[np.ndarray, np.ndarray] | None = None,
+                   side_by_side: bool = False) -> tuple[np.ndarray, float]:
+    """Nelder-Mead from each of ``starts`` (initial simplex ``step``, ``evaluations`` each, phases "start 1",
+    "start 2", ...); the best point found and its loss. ``side_by_side``: the searches run in threads at the same
+    time (for an ``evaluate`` that hands its work to other processes and is thread-safe); the result is that of
+    running them one after another."""
 
     def search(k: int) -> tuple[np.ndarray, float]:
-        return simplex_search(evaluate, starts[k], start_step, each, f"start {k + 1}", box=box)
+        return simplex_search(evaluate, starts[k], step, evaluations, f"start {k + 1}", box=box)
 
     if side_by_side:
         with ThreadPoolExecutor(len(starts)) as threads:
@@ -179,7 +176,18 @@ def multistart_search(evaluate: Evaluate, starts: Sequence[np.ndarray], start_st
         found = [search(k) for k in range(len(starts))]
     best = min(range(len(found)), key=lambda k: found[k][1])
     logger.info("best of %d starts: start %d, loss %.5g", len(starts), best + 1, found[best][1])
-    return simplex_search(evaluate, found[best][0], step, evaluations - each * len(starts), "full", box=box)
+    return found[best]
+
+
+def multistart_search(evaluate: Evaluate, starts: Sequence[np.ndarray], start_step: float, step: float,
+                      evaluations: int, box: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float]:
+    """Nelder-Mead from each of ``starts`` (initial simplex ``start_step``) with half of ``evaluations`` shared among
+    them, then from the best point found with a fresh simplex of ``step`` and the remaining evaluations."""
+    if len(starts) == 1:
+        return simplex_search(evaluate, starts[0], step, evaluations, "full", box=box)
+    each = evaluations // (2 * len(starts))
+    x, _ = start_searches(evaluate, starts, start_step, each, box)
+    return simplex_search(evaluate, x, step, evaluations - each * len(starts), "full", box=box)
 
 
 @dataclass

@@ -159,20 +159,3 @@ def tolerated(points: np.ndarray, losses: np.ndarray, tolerance: float) -> Toler
     each once (a point evaluated in two phases is one material)."""
     points, losses = np.asarray(points, dtype=float), np.asarray(losses, dtype=float)
     return Tolerated(np.unique(points[losses <= (1.0 + tolerance) * losses.min()], axis=0))
-
-
-def ridge_walk(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.ndarray, direction: np.ndarray,
-               step: float, threshold: float, box: tuple[np.ndarray, np.ndarray], steps: int = 4) -> None:
-    """Evaluate points from ``centre`` both ways along ``direction`` (a unit vector of log-parameters), ``step``
-    apart, the two sides side by side, each side until its loss exceeds ``threshold``, it leaves ``box`` or
-    ``steps`` are taken. Where the parameters trade against each other along a valley, a profile holds the others
-    fixed and sees a narrow interval; the walk finds how far equally good materials reach (and a better one, if the
-    search stopped short of it)."""
-    sides = [1.0, -1.0]
-    for k in range(1, steps + 1):
-        points = {s: centre + s * k * step * direction for s in sides}
-        points = {s: p for s, p in points.items() if np.all(p >= box[0]) and np.all(p <= box[1])}
-        if not points:
-            return
-        losses = evaluate_many(list(points.values()))
-        sides = [s for s, loss in zip(points, losses, strict=True) if loss <= threshold]

@@ -4,7 +4,7 @@ against each other, against the analytic region of a quadratic loss."""
 import numpy as np
 import pytest
 
-from rheo.fit.uncertainty import Interval, ridge_walk, tolerated
+from rheo.fit.uncertainty import Interval, tolerated
 
 MINIMUM = np.array([1.0, 0.5, -0.7])
 RIDGE = np.array([1.0, -1.0, 0.0]) / np.sqrt(2.0)  # log tau_y up, log K down: the flat direction
@@ -60,28 +60,3 @@ def test_intervals_grow_to_the_materials_within_the_tolerance_along_a_ridge():
     # along the ridge tau_y and K reach far beyond their conditional intervals; n does not trade with them
     assert widened["tau_y"].high / widened["tau_y"].low > 4 * conditional["tau_y"].high / conditional["tau_y"].low
     assert not widened["tau_y"].determined and conditional["tau_y"].determined
-
-
-def test_the_walk_along_the_ridge_reaches_as_far_as_the_tolerance_allows_and_no_farther():
-    """From a point off the minimum along the ridge (where a search stopped short), the walk finds the better
-    materials further along and stops each side at its first step beyond the threshold or the box."""
-    evaluated = []
-
-    def evaluate_many(points):
-        evaluated.extend(points)
-        return list(loss(np.array(points), 0.02))
-
-    start = MINIMUM - 2.0 * RIDGE
-    threshold = (1.0 + TOLERANCE) * loss(start[None], 0.02)[0]
-    box = (MINIMUM - 10.0, MINIMUM + np.array([10.0, 10.0, 10.0]))
-    ridge_walk(evaluate_many, start, RIDGE, 0.5, threshold, box, steps=20)
-    values = loss(np.array(evaluated), 0.02)
-    along = (np.array(evaluated) - start) @ RIDGE
-    # the side towards the minimum passes it; each side ends at its first point above the threshold
-    assert values.min() < loss(start[None], 0.02)[0] and along.max() > 2.0
-    for side in (along > 0, along < 0):
-        assert values[side][-1] > threshold and np.all(values[side][:-1] <= threshold)
-    # a box that ends the ridge stops the walk there
-    evaluated.clear()
-    ridge_walk(evaluate_many, start, RIDGE, 0.5, threshold, (box[0], start + 0.6), steps=20)
-    assert len(evaluated) == 2  # one step each way fits in the box, the second leaves it

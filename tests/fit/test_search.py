@@ -9,7 +9,7 @@ from functools import partial
 import numpy as np
 import pytest
 
-from rheo.fit.search import EvaluationLog, estimate, multistart_search, simplex_search, survey
+from rheo.fit.search import EvaluationLog, estimate, multistart_search, simplex_search, start_searches, survey
 from rheo.fit.uncertainty import parabola_region, profile_intervals, profile_points
 
 
@@ -82,7 +82,7 @@ def test_searches_side_by_side_run_at_once_and_find_what_they_find_one_after_ano
     for side_by_side in (False, True):
         log = EvaluationLog(tmp_path / f"{side_by_side}.json", "key")
         evaluate = partial(lambda x, phase, log: log.evaluate_many(slow, [x], phase)[0], log=log)
-        results.append(multistart_search(evaluate, starts, 0.5, 0.2, 80, side_by_side=side_by_side))
+        results.append(start_searches(evaluate, starts, 0.5, 40, side_by_side=side_by_side))
         assert most[0] == (2 if side_by_side else 1)
         stored.append(sorted(json.dumps(r) for r in json.loads(log.path.read_text())["records"]))
     (x0, v0), (x1, v1) = results

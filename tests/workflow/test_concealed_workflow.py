@@ -15,7 +15,7 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
         "virheometry:\n  simulation: {cells_per_height: 4, cells_across: 4}\n"
         "concealed:\n  cases: cases\n  scene: {frames: 4}\n"
         "  lab: {cells_per_height: 5, cells_across: 6}\n"
-        "  fit: {samples: 2, evaluations: 2, starts: 1}\n"
+        "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1}\n"
         "diagnose: {candidates: [floor_friction, gravity_tilt], rung_evaluations: 2, refit_evaluations: 2,\n"
         "           held_out_every: 4}\n")
     run = workflow.run("results/concealed/summary.html", "--configfile", "quick.yaml")

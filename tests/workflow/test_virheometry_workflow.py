@@ -7,7 +7,7 @@ import json
 def test_a_setup_is_imported_and_fitted(workflow):
     (workflow.root / "quick.yaml").write_text(
         "virheometry:\n  simulation: {cells_per_height: 4, cells_across: 4, max_offset: 0.05}\n"
-        "  fit: {samples: 2, evaluations: 2, starts: 1}\n")
+        "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1}\n")
     run = workflow.run("results/virheometry/Carbonara/fit_setup2/params.json", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
     setup = json.loads((workflow.root / "results/virheometry/setups/ref_Carbonara_2.0_2.5_2/setup.json").read_text())

@@ -1,0 +1,152 @@
+"""The loss around its minimum as a smooth surface fitted to many evaluations (a response surface).
+
+The silhouette loss is rough at the scale of pixel edges, and where the parameters trade against each other its
+minimum lies in a long, nearly flat valley: a simplex stops wherever the roughness dipped, and the lowest loss
+evaluated is a noisy estimate of where the valley's floor is lowest. A quadratic fitted by least squares to
+evaluations spread on a design around the valley averages the roughness out; its minimiser is the estimate, and
+the region where it stays within the tolerance gives the intervals with the trade-offs included (the region's
+extent along each parameter, where a profile holds the others at their optimum).
+
+The quadratic models the squared loss: a boundary distance grows like sqrt(floor^2 + error^2) with a material's
+error, whose square is quadratic both near the floor and away from it.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass
+class Quadratic:
+    """q(x) = value + gradient . d + d . hessian . d / 2 with d = x - centre."""
+
+    centre: np.ndarray
+    value: float
+    gradient: np.ndarray
+    hessian: np.ndarray
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        d = np.atleast_2d(x) - self.centre
+        return self.value + d @ self.gradient + 0.5 * np.einsum("ni,ij,nj->n", d, self.hessian, d)
+
+    @property
+    def convex(self) -> bool:
+        return bool(np.linalg.eigvalsh(self.hessian)[0] > 0)
+
+    def lowest_within(self, radius: float) -> np.ndarray:
+        """The lowest point within ``radius`` of the centre: the unconstrained minimiser where it lies inside, else
+        the point on the sphere where the gradient of q is normal to it ((H + s I) d = -g, s found by bisection)."""
+        eigenvalues, basis = np.linalg.eigh(self.hessian)
+        g = basis.T @ self.gradient
+
+        def step(shift: float) -> np.ndarray:
+            return basis @ (-g / (eigenvalues + shift))
+
+        if eigenvalues[0] > 0 and np.linalg.norm(step(0.0)) <= radius:
+            return self.centre + step(0.0)
+        low = max(-eigenvalues[0], 0.0) + 1e-12 * max(abs(eigenvalues).max(), 1.0)
+        high = low + np.linalg.norm(self.gradient) / radius + abs(eigenvalues).max()
+        if np.linalg.norm(step(low)) <= radius:  # the gradient is (nearly) normal to the lowest curvature: go along it
+            return self.centre + radius * basis[:, 0] * -np.sign(g[0] or 1.0)
+        for _ in range(100):
+            middle = 0.5 * (low + high)
+            low, high = (middle, high) if np.linalg.norm(step(middle)) > radius else (low, middle)
+        return self.centre + step(high)
+
+    def extents(self, tolerance: float) -> np.ndarray | None:
+        """For q a squared loss: each coordinate's range (coordinates, 2) over the region where the loss stays
+        within ``tolerance`` (relative) of its minimum, the shadow of an ellipsoid on the axes. None where q is not
+        convex (the region is unbounded)."""
+        if not self.convex:
+            return None
+        inverse = np.linalg.inv(self.hessian)
+        minimiser = self.centre - inverse @ self.gradient
+        depth = ((1.0 + tolerance) ** 2 - 1.0) * max(float(self(minimiser)[0]), 0.0)
+        half = np.sqrt(2.0 * depth * np.diag(inverse))
+        return np.column_stack([minimiser - half, minimiser + half])
+
+
+def fit_quadratic(points: np.ndarray, values: np.ndarray, centre: np.ndarray, relative: bool = False) -> Quadratic:
+    """The quadratic (expanded about ``centre``) nearest to ``values`` at ``points`` in least squares, of the
+    residuals relative to the values if ``relative`` (for values whose noise grows in proportion, as the squared
+    loss's roughness does: the valley's floor then counts as much as its walls); needs at least (k + 1)(k + 2)/2
+    points in general position for k coordinates."""
+    d = np.asarray(points, dtype=float) - centre
+    values = np.asarray(values, dtype=float)
+    k = d.shape[1]
+    pairs = list(itertools.combinations_with_replacement(range(k), 2))
+    features = np.column_stack([np.ones(len(d)), d, *[d[:, i] * d[:, j] for i, j in pairs]])
+    if len(d) < features.shape[1]:
+        raise ValueError(f"a quadratic in {k} coordinates needs {features.shape[1]} points, got {len(d)}")
+    scale = 1.0 / np.abs(values) if relative else np.ones(len(values))
+    coefficients = np.linalg.lstsq(features * scale[:, None], values * scale, rcond=None)[0]
+    hessian = np.zeros((k, k))
+    for (i, j), c in zip(pairs, coefficients[1 + k:], strict=True):
+        hessian[i, j] += c
+        hessian[j, i] += c  # the diagonal gets 2 c: the Hessian of c x_i^2
+    return Quadratic(np.asarray(centre, dtype=float), float(coefficients[0]), coefficients[1:1 + k], hessian)
+
+
+def composite_design(centre: np.ndarray, half_width: float) -> np.ndarray:
+    """A spherical central composite design: the centre, the 2^k corners of the cube centre +- half_width and the
+    2k points on the axes at sqrt(k) half_widths, all but the centre as far from it; it determines every
+    coefficient of a quadratic."""
+    k = len(centre)
+    corners = np.array(list(itertools.product([-1.0, 1.0], repeat=k)))
+    axes = np.sqrt(k) * np.r_[np.eye(k), -np.eye(k)]
+    return centre + half_width * np.r_[np.zeros((1, k)), corners, axes]
+
+
+@dataclass
+class Refinement:
+    """The estimate (log-parameters), the surface of the squared loss fitted around it, the design's half width and
+    the rounds it took."""
+
+    x: np.ndarray
+    surface: Quadratic
+    half_width: float
+    rounds: int
+
+
+def refine(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.ndarray, half_width: float,
+           box: tuple[np.ndarray, np.ndarray], evaluated: Callable[[], tuple[np.ndarray, np.ndarray]],
+           rounds: int = 3) -> Refinement:
+    """Rounds of a composite design around ``centre`` (clipped to ``box``; a point evaluated near a design point
+    stands in for it), each followed by a quadratic fitted to
+    the squared losses of every evaluation within twice the design's radius (``evaluated()``: all points and
+    losses so far, the design's among them) and a move to its lowest point within the design's radius; until the
+    move stays within a half width (the minimum lies inside the design) or ``rounds`` are done. The estimate is
+    the last surface's lowest point within the design's radius of the last centre."""
+    radius = np.sqrt(len(centre)) * half_width
+    for done in range(1, rounds + 1):
+        design = np.unique(np.clip(composite_design(centre, half_width), *box), axis=0)
+        points, _ = evaluated()
+        if len(points):  # a point evaluated within a quarter half width stands in for a design point
+            nearest = np.linalg.norm(design[:, None] - points[None], axis=2).min(axis=1)
+            design = design[nearest > 0.25 * half_width]
+        evaluate_many(list(design))
+        points, losses = evaluated()
+        near = np.linalg.norm(points - centre, axis=1) <= 2.0 * radius
+        surface = fit_quadratic(points[near], np.asarray(losses)[near] ** 2, centre, relative=True)
+        lowest = np.clip(surface.lowest_within(radius), *box)
+        moved = float(np.linalg.norm(lowest - centre))
+        logger.info("surface round %d: %d evaluations, %s, lowest point moved %.3g log units", done, int(near.sum()),
+                    "convex" if surface.convex else "not convex", moved)
+        if moved <= half_width or done == rounds:
+            return Refinement(lowest, surface, half_width, done)
+        centre = lowest
+    raise AssertionError("unreachable")
+
+
+def describe_surface(surface: Quadratic, names: Sequence[str]) -> dict:
+    """The surface as JSON-ready numbers."""
+    return {"of": "squared loss (px^2) against log-parameters", "names": list(names),
+            "centre_log": surface.centre.tolist(), "value": surface.value, "gradient": surface.gradient.tolist(),
+            "hessian": surface.hessian.tolist(), "convex": surface.convex}

@@ -1,0 +1,96 @@
+"""The quadratic surface of the squared loss: its fit against exact quadratics, its trust-region step against a
+brute-force search on the sphere, its tolerance region against the analytic ellipsoid and a dense sampling, and the
+refinement's estimate on a rough, flat valley like the silhouette loss's."""
+
+import numpy as np
+import pytest
+
+from rheo.fit.surface import Quadratic, composite_design, fit_quadratic, refine
+
+RNG = np.random.default_rng(4)
+HESSIAN = np.array([[4.0, 1.5, 0.3], [1.5, 2.0, -0.4], [0.3, -0.4, 1.0]])
+GRADIENT = np.array([0.5, -1.0, 0.2])
+CENTRE = np.array([0.1, -0.2, 0.3])
+
+
+def exact(points: np.ndarray) -> np.ndarray:
+    d = points - CENTRE
+    return 2.0 + d @ GRADIENT + 0.5 * np.einsum("ni,ij,nj->n", d, HESSIAN, d)
+
+
+def test_a_quadratic_is_recovered_exactly_from_a_composite_design():
+    design = composite_design(CENTRE + 0.05, 0.3)
+    assert design.shape == (1 + 8 + 6, 3)
+    surface = fit_quadratic(design, exact(design), CENTRE)
+    assert surface.value == pytest.approx(2.0) and np.allclose(surface.gradient, GRADIENT)
+    assert np.allclose(surface.hessian, HESSIAN)
+    others = RNG.normal(size=(20, 3))
+    assert np.allclose(surface(others), exact(others))
+
+
+def test_too_few_points_for_a_quadratic_is_an_error():
+    with pytest.raises(ValueError, match="needs 10 points"):
+        fit_quadratic(np.zeros((9, 3)), np.zeros(9), CENTRE)
+
+
+@pytest.mark.parametrize("hessian", [HESSIAN, np.diag([2.0, -1.0, 0.5])], ids=["convex", "saddle"])
+@pytest.mark.parametrize("radius", [0.05, 0.3, 5.0])
+def test_the_lowest_point_within_a_radius_is_the_lowest_of_the_sphere_and_the_ball(hessian, radius):
+    surface = Quadratic(CENTRE, 1.0, GRADIENT, hessian)
+    lowest = surface.lowest_within(radius)
+    assert np.linalg.norm(lowest - CENTRE) <= radius * (1 + 1e-9)
+    directions = RNG.normal(size=(200000, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    ball = CENTRE + radius * directions * RNG.uniform(0, 1, (len(directions), 1)) ** (1 / 3)
+    sphere = CENTRE + radius * directions
+    brute = min(surface(ball).min(), surface(sphere).min())
+    assert surface(lowest)[0] <= brute + 1e-6 * max(1.0, abs(brute))
+
+
+def test_the_tolerance_region_is_the_shadow_of_the_ellipsoid_on_each_axis():
+    """Loss sqrt(floor^2 + d.A.d): within a relative tolerance t where d.A.d <= ((1 + t)^2 - 1) floor^2."""
+    floor, tolerance, minimum = 0.5, 0.08, np.array([1.0, 0.4, -0.6])
+    design = composite_design(minimum + 0.1, 0.4)
+    losses = np.sqrt(floor**2 + np.einsum("ni,ij,nj->n", design - minimum, HESSIAN, design - minimum))
+    surface = fit_quadratic(design, losses**2, minimum + 0.1)
+    extents = surface.extents(tolerance)
+    assert surface.convex and np.allclose(extents.mean(axis=1), minimum)
+    half = np.sqrt(((1 + tolerance) ** 2 - 1) * floor**2 * np.diag(np.linalg.inv(HESSIAN)))
+    assert np.allclose(extents, np.c_[minimum - half, minimum + half])
+    samples = minimum + RNG.uniform(-0.5, 0.5, (400000, 3))
+    d = samples - minimum
+    inside = samples[np.sqrt(floor**2 + np.einsum("ni,ij,nj->n", d, HESSIAN, d)) <= (1 + tolerance) * floor]
+    assert np.allclose(extents[:, 0], inside.min(axis=0), atol=0.01)
+    assert np.allclose(extents[:, 1], inside.max(axis=0), atol=0.01)
+    assert Quadratic(minimum, 1.0, GRADIENT, np.diag([1.0, -1.0, 1.0])).extents(tolerance) is None
+
+
+def test_refinement_finds_the_floor_of_a_rough_flat_valley_and_its_tolerance_region():
+    """A valley 8 times longer than wide (tolerance half-widths 0.45 and 0.06 log units at 8 %, as Lotion's tau_y
+    and n) whose loss is rough at the 1 % level (pixel edges): from a point far along it, the rounds move to the
+    minimum."""
+    minimum, floor, tolerance = np.array([1.0, 1.5, -0.6]), 0.03, 0.08
+    valley = np.array([1.0, -1.0, 0.3]) / np.linalg.norm([1.0, -1.0, 0.3])
+    across = np.linalg.qr(np.c_[valley, RNG.normal(size=(3, 2))])[0][:, 1:]
+    depth = ((1 + tolerance) ** 2 - 1) * floor**2  # of the squared loss at the tolerance
+    hessian = depth / 0.45**2 * np.outer(valley, valley) + depth / 0.06**2 * across @ across.T
+    evaluated_points, evaluated_losses = [], []
+
+    def evaluate_many(points):
+        points = np.array(points)
+        d = points - minimum
+        rough = 1.0 + 0.01 * np.sin(40.0 * points @ np.array([1.0, 2.0, 3.0])) * np.cos(37.0 * points[:, 0])
+        losses = np.sqrt(floor**2 + np.einsum("ni,ij,nj->n", d, hessian, d)) * rough
+        evaluated_points.extend(points)
+        evaluated_losses.extend(losses)
+        return list(losses)
+
+    box = (minimum - 3.0, minimum + 3.0)
+    start = minimum + 0.8 * valley
+    found = refine(evaluate_many, start, 0.25, box, lambda: (np.array(evaluated_points), np.array(evaluated_losses)))
+    assert 2 <= found.rounds <= 3
+    assert np.linalg.norm(found.x - minimum) < 0.05
+    # the intervals: the tolerance region's shadow, 0.45 along the valley
+    half = np.sqrt(depth * np.diag(np.linalg.inv(hessian)))
+    extents = found.surface.extents(tolerance)
+    assert np.allclose(extents[:, 1] - extents[:, 0], 2.0 * half, rtol=0.1)
