@@ -75,6 +75,9 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
                           settings["evaluations"] // len(starts), (low, high), side_by_side=True)
     refinement = refine(lambda points: evaluations.evaluate_many(joint, points, "surface"), x,
                         settings["half_width"], (low, high), evaluated, settings["rounds"])
+    if not refinement.converged:
+        log.warning("the surface's lowest point still moved after %d rounds: the estimate is the lowest point "
+                    "within the last design", refinement.rounds)
     x, loss = refinement.x, evaluate(refinement.x, "estimate")
     best = min(evaluations.records, key=lambda r: r["loss"])
     if loss > (1.0 + settings["tolerance"]) * best["loss"]:
@@ -89,7 +92,8 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
     intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)))
                  for n, v, (lo, hi) in zip(names, x, extents, strict=True)}
     evidence = describe_surface(refinement.surface, names) | {"half_width_log": refinement.half_width,
-                                                              "rounds": refinement.rounds}
+                                                              "rounds": refinement.rounds,
+                                                              "converged": refinement.converged}
     details = dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))
 bar.close()
 

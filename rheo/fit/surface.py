@@ -106,13 +106,14 @@ def composite_design(centre: np.ndarray, half_width: float) -> np.ndarray:
 
 @dataclass
 class Refinement:
-    """The estimate (log-parameters), the surface of the squared loss fitted around it, the design's half width and
-    the rounds it took."""
+    """The estimate (log-parameters), the surface of the squared loss fitted around it, the design's half width, the
+    rounds it took and whether the last surface's lowest point lay within a half width of its design's centre."""
 
     x: np.ndarray
     surface: Quadratic
     half_width: float
     rounds: int
+    converged: bool
 
 
 def refine(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.ndarray, half_width: float,
@@ -140,7 +141,7 @@ def refine(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.
         logger.info("surface round %d: %d evaluations, %s, lowest point moved %.3g log units", done, int(near.sum()),
                     "convex" if surface.convex else "not convex", moved)
         if moved <= half_width or done == rounds:
-            return Refinement(lowest, surface, half_width, done)
+            return Refinement(lowest, surface, half_width, done, moved <= half_width)
         centre = lowest
     raise AssertionError("unreachable")
 
