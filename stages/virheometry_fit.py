@@ -84,10 +84,12 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
         log.warning("the surface's lowest point loses %.5g px, more than the tolerance above the best evaluated "
                     "(%.5g px): the best evaluated is the estimate", loss, best["loss"])
         x, loss = np.array(best["x"]), best["loss"]
-    extents = refinement.surface.extents(settings["tolerance"])
-    if extents is None:
-        log.warning("the loss's surface is not convex: the intervals are the equally good materials' ranges")
-        extents = np.column_stack([x, x])
+    extents, open_ends = refinement.surface.extents(settings["tolerance"], refinement.reach, x)
+    if open_ends.any():
+        log.warning("the region within the tolerance goes on past the surface's reach (%.2f log units) at %s: "
+                    "those ends of the intervals are lower bounds", refinement.reach,
+                    ", ".join(f"{n}'s {side}" for n, ends in zip(names, open_ends, strict=True)
+                              for side, end in zip(("low", "high"), ends, strict=True) if end))
     extents = np.column_stack([np.clip(extents[:, 0], low, x), np.clip(extents[:, 1], x, high)])
     intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)))
                  for n, v, (lo, hi) in zip(names, x, extents, strict=True)}
@@ -106,8 +108,8 @@ else:
     log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
 intervals = spread.widen(intervals, names)
 band = shear_rate_band(list(details.values()))
-params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined}
-          for n, i in intervals.items()}
+params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined,
+                           "ci95_open": ends.tolist()} for (n, i), ends in zip(intervals.items(), open_ends, strict=True)}
 if law.n is not None:
     params[RESULT_KEYS["n"]] = {"value": law.n, "ci95": [law.n, law.n], "determined": True, "fixed": True}
 for n, i in intervals.items():

@@ -60,17 +60,38 @@ class Quadratic:
             low, high = (middle, high) if np.linalg.norm(step(middle)) > radius else (low, middle)
         return self.centre + step(high)
 
-    def extents(self, tolerance: float) -> np.ndarray | None:
-        """For q a squared loss: each coordinate's range (coordinates, 2) over the region where the loss stays
-        within ``tolerance`` (relative) of its minimum, the shadow of an ellipsoid on the axes. None where q is not
-        convex (the region is unbounded)."""
-        if not self.convex:
-            return None
-        inverse = np.linalg.inv(self.hessian)
-        minimiser = self.centre - inverse @ self.gradient
-        depth = ((1.0 + tolerance) ** 2 - 1.0) * max(float(self(minimiser)[0]), 0.0)
-        half = np.sqrt(2.0 * depth * np.diag(inverse))
-        return np.column_stack([minimiser - half, minimiser + half])
+    def extents(self, tolerance: float, reach: float, estimate: np.ndarray,
+                samples: int = 100000) -> tuple[np.ndarray, np.ndarray]:
+        """For q a squared loss fitted within ``reach`` of its centre: each coordinate's range (coordinates, 2) over
+        the region where the loss stays within ``tolerance`` (relative) of its lowest (of its value at
+        ``estimate`` where q has no minimum within the reach), and whether each end is
+        open (coordinates, 2): the range still grows with the reach there (by more than 2 % of it between the
+        reach and 1.25 times it), so it is a lower bound. A convex q
+        whose ellipsoid lies within the reach gives the ellipsoid's shadow on the axes; otherwise the region is
+        sampled within the reach (a valley q does not close, or one longer than the evaluations reach)."""
+        if self.convex:
+            inverse = np.linalg.inv(self.hessian)
+            minimiser = self.centre - inverse @ self.gradient
+            depth = ((1.0 + tolerance) ** 2 - 1.0) * max(float(self(minimiser)[0]), 0.0)
+            half = np.sqrt(2.0 * depth * np.diag(inverse))
+            if np.linalg.norm(minimiser - self.centre) + half.max() <= reach:
+                return np.column_stack([minimiser - half, minimiser + half]), np.zeros((len(half), 2), dtype=bool)
+        level = (1.0 + tolerance) ** 2 * max(float(self(estimate)[0]), 0.0)
+        ranges = [self._sampled_range(level, r, samples) for r in (reach, 1.25 * reach)]
+        return ranges[0], np.abs(ranges[1] - ranges[0]) > 0.02 * reach
+
+    def _sampled_range(self, level: float, reach: float, samples: int) -> np.ndarray:
+        """Each coordinate's range over the region where q <= ``level`` (or its lowest within ``reach``, if higher)
+        within ``reach``, from points sampled uniformly in the ball and on its sphere."""
+        rng = np.random.default_rng(0)
+        directions = rng.normal(size=(samples, len(self.centre)))
+        directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+        radii = reach * rng.uniform(0.0, 1.0, (samples, 1)) ** (1.0 / len(self.centre))
+        points = np.r_[self.lowest_within(reach)[None], self.centre + radii * directions,
+                       self.centre + reach * directions]
+        values = self(points)
+        inside = points[values <= max(level, values.min())]
+        return np.column_stack([inside.min(axis=0), inside.max(axis=0)])
 
 
 def fit_quadratic(points: np.ndarray, values: np.ndarray, centre: np.ndarray, relative: bool = False) -> Quadratic:
@@ -114,6 +135,11 @@ class Refinement:
     half_width: float
     rounds: int
     converged: bool
+
+    @property
+    def reach(self) -> float:
+        """How far from its centre the surface was fitted: twice the design's radius."""
+        return 2.0 * np.sqrt(len(self.x)) * self.half_width
 
 
 def refine(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.ndarray, half_width: float,

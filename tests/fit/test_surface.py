@@ -53,8 +53,8 @@ def test_the_tolerance_region_is_the_shadow_of_the_ellipsoid_on_each_axis():
     design = composite_design(minimum + 0.1, 0.4)
     losses = np.sqrt(floor**2 + np.einsum("ni,ij,nj->n", design - minimum, HESSIAN, design - minimum))
     surface = fit_quadratic(design, losses**2, minimum + 0.1)
-    extents = surface.extents(tolerance)
-    assert surface.convex and np.allclose(extents.mean(axis=1), minimum)
+    extents, open_ends = surface.extents(tolerance, 1.0, minimum)
+    assert surface.convex and not open_ends.any() and np.allclose(extents.mean(axis=1), minimum)
     half = np.sqrt(((1 + tolerance) ** 2 - 1) * floor**2 * np.diag(np.linalg.inv(HESSIAN)))
     assert np.allclose(extents, np.c_[minimum - half, minimum + half])
     samples = minimum + RNG.uniform(-0.5, 0.5, (400000, 3))
@@ -62,7 +62,22 @@ def test_the_tolerance_region_is_the_shadow_of_the_ellipsoid_on_each_axis():
     inside = samples[np.sqrt(floor**2 + np.einsum("ni,ij,nj->n", d, HESSIAN, d)) <= (1 + tolerance) * floor]
     assert np.allclose(extents[:, 0], inside.min(axis=0), atol=0.01)
     assert np.allclose(extents[:, 1], inside.max(axis=0), atol=0.01)
-    assert Quadratic(minimum, 1.0, GRADIENT, np.diag([1.0, -1.0, 1.0])).extents(tolerance) is None
+
+
+@pytest.mark.parametrize("curvature", [0.0, -0.02, 0.01], ids=["flat", "saddle", "longer than the reach"])
+def test_a_region_past_the_surfaces_reach_is_sampled_within_it_and_its_open_ends_said(curvature):
+    """A valley along the first axis that does not close (or closes past the reach): the region is the valley's
+    part within the reach, its ends along the valley are open, those across it closed."""
+    reach, tolerance = 1.0, 0.1
+    surface = Quadratic(np.zeros(3), 0.04, np.zeros(3), np.diag([curvature, 8.0, 2.0]))
+    extents, open_ends = surface.extents(tolerance, reach, np.zeros(3))
+    samples = RNG.normal(size=(400000, 3))
+    samples *= reach * RNG.uniform(0, 1, (len(samples), 1)) ** (1 / 3) / np.linalg.norm(samples, axis=1)[:, None]
+    values = surface(samples)
+    inside = samples[values <= (1 + tolerance) ** 2 * surface(np.zeros(3))[0]]  # of the estimate's loss
+    assert np.allclose(extents, np.c_[inside.min(axis=0), inside.max(axis=0)], atol=0.03)
+    assert open_ends.tolist() == [[True, True], [False, False], [False, False]]
+    assert extents[0, 1] - extents[0, 0] > 1.9 * reach
 
 
 def test_refinement_finds_the_floor_of_a_rough_flat_valley_and_its_tolerance_region():
@@ -92,5 +107,5 @@ def test_refinement_finds_the_floor_of_a_rough_flat_valley_and_its_tolerance_reg
     assert np.linalg.norm(found.x - minimum) < 0.05
     # the intervals: the tolerance region's shadow, 0.45 along the valley
     half = np.sqrt(depth * np.diag(np.linalg.inv(hessian)))
-    extents = found.surface.extents(tolerance)
-    assert np.allclose(extents[:, 1] - extents[:, 0], 2.0 * half, rtol=0.1)
+    extents, open_ends = found.surface.extents(tolerance, found.reach, found.x)
+    assert not open_ends.any() and np.allclose(extents[:, 1] - extents[:, 0], 2.0 * half, rtol=0.1)
