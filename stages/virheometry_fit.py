@@ -109,7 +109,8 @@ else:
 intervals = spread.widen(intervals, names)
 band = shear_rate_band(list(details.values()))
 params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined,
-                           "ci95_open": ends.tolist()} for (n, i), ends in zip(intervals.items(), open_ends, strict=True)}
+                           "ci95_open": ends.tolist()}
+          for (n, i), ends in zip(intervals.items(), open_ends, strict=True)}
 if law.n is not None:
     params[RESULT_KEYS["n"]] = {"value": law.n, "ci95": [law.n, law.n], "determined": True, "fixed": True}
 for n, i in intervals.items():
