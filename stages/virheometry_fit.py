@@ -108,7 +108,7 @@ else:
     log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
 intervals = spread.widen(intervals, names)
 band = shear_rate_band(list(details.values()))
-params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined,
+params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined and not ends.any(),
                            "ci95_open": ends.tolist()}
           for (n, i), ends in zip(intervals.items(), open_ends, strict=True)}
 if law.n is not None:

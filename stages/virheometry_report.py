@@ -10,7 +10,7 @@ from rheo.experiments.rheometer import read_flow_curve
 from rheo.fit.dam_break import RESULT_KEYS
 from rheo.io import read_json, write_text_atomic
 from rheo.report.html import figure_tag, image_tag, page, table_tag
-from rheo.report.virheometry import flow_figure, rheometer_comparison
+from rheo.report.virheometry import flow_figure, interval_text, rheometer_comparison
 from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -21,7 +21,7 @@ KEYS = dict(zip(RESULT_KEYS.values(), ("tau_y (Pa)", "K (Pa s^n)", "n"), strict=
 
 
 def law_rows(fit: dict) -> list[list[str]]:
-    return [[label, f"{fit[key]['value']:.4g}", f"[{fit[key]['ci95'][0]:.3g}, {fit[key]['ci95'][1]:.3g}]",
+    return [[label, f"{fit[key]['value']:.4g}", interval_text(fit[key]),
              "yes" if fit[key]["determined"] else "no"] for key, label in KEYS.items()]
 
 
@@ -65,8 +65,8 @@ if smk.input.single:
     rows = []
     for path in [*smk.input.single, smk.input.params]:
         fit = read_json(path)
-        rows.append([Path(path).parent.name, *[f"[{fit[k]['ci95'][0]:.3g}, {fit[k]['ci95'][1]:.3g}] "
-                                               f"({fit[k]['ci95'][1] / fit[k]['ci95'][0]:.2f})" for k in KEYS],
+        rows.append([Path(path).parent.name, *[f"{interval_text(fit[k])} ({fit[k]['ci95'][1] / fit[k]['ci95'][0]:.2f})"
+                                               for k in KEYS],
                      spread_text(fit)])
     sections.append(("One setup against both", table_tag(header, rows)))
 sections.append(("Camera checks", "".join(image_tag(Path(p).read_bytes(), "png", Path(p).parent.name)

@@ -6,7 +6,7 @@ import numpy as np
 from rheo.fit.dam_break import RESULT_KEYS
 from rheo.io import read_json, write_text_atomic
 from rheo.report.html import figure_tag, page, table_tag
-from rheo.report.virheometry import summary_figure
+from rheo.report.virheometry import interval_text, summary_figure
 from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -18,7 +18,7 @@ for material, path in zip(smk.params.materials, smk.input, strict=True):
     cells = [material]
     for key in KEYS:
         p = fit[key]
-        cells.append(f"{p['value']:.3g} [{p['ci95'][0]:.3g}, {p['ci95'][1]:.3g}]" + ("" if p["determined"] else " *"))
+        cells.append(f"{p['value']:.3g} {interval_text(p)}" + ("" if p["determined"] else " *"))
     cells.append(", ".join(f"{np.mean(s['silhouette_iou']):.3f}" for s in fit["setups"].values()))
     band = fit["shear_rate_band_per_s"]
     cells += ["none" if band is None else f"{band[0]:.2g}-{band[1]:.2g}",
@@ -27,7 +27,8 @@ for material, path in zip(smk.params.materials, smk.input, strict=True):
     laws[material] = (tuple(fit[k]["value"] for k in KEYS), None if band is None else tuple(band))
 body = (table_tag(["material", "tau_y (Pa) [95 %]", "K (Pa s^n) [95 %]", "n [95 %]", "mean IoU per setup",
                    "shear rates reached (1/s)", "ridge", "runtime (min)"], rows)
-        + "<p>* not determined by the recordings (95 % interval wider than a factor 4). Ridge: the evaluated "
+        + "<p>* not determined by the recordings (95 % interval wider than a factor 4, or open: < or >, the "
+          "materials within the tolerance go on past the fit's reach). Ridge: the evaluated "
           "materials within the tolerance spread over a factor 4 or more in some parameter.</p>"
         + figure_tag(summary_figure(laws), "recovered flow curves"))
 write_text_atomic(smk.output[0], page("Real dam breaks: twelve materials", body))

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from rheo.experiments.virheometry import Setup, SetupError, cuboid_overlap, opengl_camera, read_setup
+from rheo.report.virheometry import interval_text
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "virheometry"
 SETUPS = sorted(DATA.glob("ref_*"))
@@ -88,3 +89,9 @@ def test_a_broken_folder_gives_one_clear_error_naming_the_file(setup_copy, break
 def test_a_folder_not_named_like_a_setup_is_refused(tmp_path):
     with pytest.raises(SetupError, match="not a setup folder"):
         read_setup(tmp_path, scale=0.5)
+
+
+def test_an_open_end_of_an_interval_is_marked():
+    assert interval_text({"ci95": [2.5, 8.0]}) == "[2.5, 8]"
+    assert interval_text({"ci95": [2.5, 8.0], "ci95_open": [True, False]}) == "[<2.5, 8]"
+    assert interval_text({"ci95": [2.5, 8.0], "ci95_open": [False, True]}) == "[2.5, >8]"

@@ -17,6 +17,7 @@ def test_a_setup_is_imported_and_fitted(workflow):
     for key in ("tau_y_Pa", "K_Pa_s_n", "n"):
         low, high = fit[key]["ci95"]
         assert low <= fit[key]["value"] <= high and isinstance(fit[key]["determined"], bool)
+        assert not (any(fit[key]["ci95_open"]) and fit[key]["determined"])  # an open interval bounds nothing
     spread = fit["within_tolerance"]
     assert spread["evaluations"] >= 1 and isinstance(spread["ridge"], bool)
     for key in ("tau_y_Pa", "K_Pa_s_n", "n"):
