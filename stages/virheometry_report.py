@@ -37,9 +37,10 @@ def spread_text(fit: dict) -> str:
 band = params["shear_rate_band_per_s"]
 reached = "none: nothing moved" if band is None else f"{band[0]:.3g}-{band[1]:.3g} 1/s"
 sections = [("Recovered law", table_tag(["parameter", "value", "95 % interval", "determined"], law_rows(params))
-             + f"<p>Each interval spans a profile along its parameter (the others at the optimum) and the "
-             f"evaluated materials within the tolerance of the best, which see the parameters trade off. "
-             f"{spread_text(params)}.</p>"
+             + f"<p>Each interval spans the region where a quadratic surface fitted to the losses around the "
+             f"estimate stays within the tolerance ({params['tolerance']:.0%}) of its lowest, the parameters' "
+             f"trade-offs included, and the evaluated materials within the tolerance of the best; an end marked "
+             f"&lt; or &gt; is open (the region goes on past the evaluations' reach). {spread_text(params)}.</p>"
              + f"<p>Shear rates reached (5th-95th percentile of the moving particles): {reached}. "
              f"Runtime {params['runtime_s'] / 60:.1f} min.</p>"),
             ("Setups", table_tag(["setup", "first frame after release (s)", "loss (px)", "mean IoU",
