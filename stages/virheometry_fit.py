@@ -41,8 +41,8 @@ bar = tqdm(desc=f"{output.parent.parent.name} {output.parent.name}", unit="evalu
 
 
 def evaluated() -> tuple[np.ndarray, np.ndarray]:
-    """Every point evaluated so far and its loss."""
-    return np.array([r["x"] for r in evaluations.records]), np.array([r["loss"] for r in evaluations.records])
+    """Every point this fit has evaluated so far (a resumed fit: replayed) and its loss."""
+    return np.array([r["x"] for r in evaluations.requested]), np.array([r["loss"] for r in evaluations.requested])
 
 
 def describe(x: np.ndarray) -> str:
@@ -79,7 +79,7 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
         log.warning("the surface's lowest point still moved after %d rounds: the estimate is the lowest point "
                     "within the last design", refinement.rounds)
     x, loss = refinement.x, evaluate(refinement.x, "estimate")
-    best = min(evaluations.records, key=lambda r: r["loss"])
+    best = min(evaluations.requested, key=lambda r: r["loss"])
     if loss > (1.0 + settings["tolerance"]) * best["loss"]:
         log.warning("the surface's lowest point loses %.5g px, more than the tolerance above the best evaluated "
                     "(%.5g px): the best evaluated is the estimate", loss, best["loss"])

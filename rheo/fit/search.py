@@ -77,6 +77,9 @@ class EvaluationLog:
         self._index: dict[str, dict] = {}
         for record in self.records:
             self._index.setdefault(self._point_key(record["phase"], record["x"]), record)
+        # the records this run has asked for, stored or new: what a resumed search has seen at the same step
+        self.requested: list[dict] = []
+        self._requested_ids: set[int] = set()
         self._lock = threading.Lock()  # searches running side by side share the log
 
     def _point_key(self, phase: str, x) -> str:
@@ -102,7 +105,12 @@ class EvaluationLog:
                     self._index[self._point_key(phase, x)] = record
                 self._write()
         with self._lock:
-            return [self._index[self._point_key(phase, x)]["loss"] for x in points]
+            found = [self._index[self._point_key(phase, x)] for x in points]
+            for record in found:
+                if id(record) not in self._requested_ids:
+                    self._requested_ids.add(id(record))
+                    self.requested.append(record)
+            return [record["loss"] for record in found]
 
     def record(self, phase: str, x) -> dict:
         """The stored record of a point evaluated in ``phase``."""

@@ -5,6 +5,7 @@ refinement's estimate on a rough, flat valley like the silhouette loss's."""
 import numpy as np
 import pytest
 
+from rheo.fit.search import EvaluationLog
 from rheo.fit.surface import Quadratic, composite_design, fit_quadratic, refine
 
 RNG = np.random.default_rng(4)
@@ -109,3 +110,33 @@ def test_refinement_finds_the_floor_of_a_rough_flat_valley_and_its_tolerance_reg
     half = np.sqrt(depth * np.diag(np.linalg.inv(hessian)))
     extents, open_ends = found.surface.extents(tolerance, found.reach, found.x)
     assert not open_ends.any() and np.allclose(extents[:, 1] - extents[:, 0], 2.0 * half, rtol=0.1)
+
+
+def test_an_interrupted_refinement_replays_its_stored_evaluations_and_ends_where_an_uninterrupted_one_does(tmp_path):
+    """The surface of a resumed fit sees only the evaluations replayed so far, not those the log holds from later
+    rounds: it takes the same steps, and evaluates nothing the first run had."""
+    minimum = np.array([0.3, -0.2, 0.1])
+    calls = []
+
+    def losses(points, stop_after=None):
+        if stop_after is not None and len(calls) >= stop_after:
+            raise KeyboardInterrupt
+        calls.extend(points)
+        return [float(np.sqrt(1e-4 + (p - minimum) @ HESSIAN @ (p - minimum) + 3.0 * np.sum((p - minimum) ** 2) ** 2))
+                for p in points]  # not quadratic: different evaluations give different surfaces
+
+    def run(log, stop_after=None):
+        def evaluated():
+            return np.array([r["x"] for r in log.requested]), np.array([r["loss"] for r in log.requested])
+
+        return refine(lambda points: log.evaluate_many(lambda p: losses(p, stop_after), points, "surface"),
+                      minimum + 0.6, 0.2, (minimum - 3.0, minimum + 3.0), evaluated)
+
+    whole = run(EvaluationLog(tmp_path / "whole.json", "key"))
+    evaluations = len(calls)
+    calls.clear()
+    with pytest.raises(KeyboardInterrupt):
+        run(EvaluationLog(tmp_path / "cut.json", "key"), stop_after=20)
+    resumed = run(EvaluationLog(tmp_path / "cut.json", "key"))
+    assert np.array_equal(resumed.x, whole.x) and resumed.rounds == whole.rounds
+    assert len(calls) == evaluations  # nothing evaluated twice
