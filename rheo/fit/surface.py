@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 logger = logging.getLogger(__name__)
+REACH = 2.0  # a surface is fitted to the evaluations within this many design radii of its centre
 
 
 @dataclass
@@ -63,12 +64,12 @@ class Quadratic:
     def extents(self, tolerance: float, reach: float, estimate: np.ndarray,
                 samples: int = 100000) -> tuple[np.ndarray, np.ndarray]:
         """For q a squared loss fitted within ``reach`` of its centre: each coordinate's range (coordinates, 2) over
-        the region where the loss stays within ``tolerance`` (relative) of its lowest (of its value at
-        ``estimate`` where q has no minimum within the reach), and whether each end is
-        open (coordinates, 2): the range still grows with the reach there (by more than 2 % of it between the
-        reach and 1.25 times it), so it is a lower bound. A convex q
-        whose ellipsoid lies within the reach gives the ellipsoid's shadow on the axes; otherwise the region is
-        sampled within the reach (a valley q does not close, or one longer than the evaluations reach)."""
+        the region where the loss stays within ``tolerance`` (relative) of its lowest (of its value at ``estimate``
+        where q has no minimum within the reach), and whether each end is open (coordinates, 2): the range still
+        grows with the reach there (by more than 2 % of it between the reach and 1.25 times it), so it is a lower
+        bound. A convex q whose ellipsoid lies within the reach gives the ellipsoid's shadow on the axes; otherwise
+        the region is sampled within the reach (a valley q does not close, or one longer than the evaluations
+        reach)."""
         if self.convex:
             inverse = np.linalg.inv(self.hessian)
             minimiser = self.centre - inverse @ self.gradient
@@ -138,8 +139,8 @@ class Refinement:
 
     @property
     def reach(self) -> float:
-        """How far from its centre the surface was fitted: twice the design's radius."""
-        return 2.0 * np.sqrt(len(self.x)) * self.half_width
+        """How far from its centre the surface was fitted."""
+        return REACH * np.sqrt(len(self.x)) * self.half_width
 
 
 def refine(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.ndarray, half_width: float,
@@ -147,7 +148,7 @@ def refine(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.
            rounds: int = 3) -> Refinement:
     """Rounds of a composite design around ``centre`` (clipped to ``box``; a point evaluated near a design point
     stands in for it), each followed by a quadratic fitted to
-    the squared losses of every evaluation within twice the design's radius (``evaluated()``: all points and
+    the squared losses of every evaluation within ``REACH`` design radii (``evaluated()``: all points and
     losses so far, the design's among them) and a move to its lowest point within the design's radius; until the
     move stays within a half width (the minimum lies inside the design) or ``rounds`` are done. The estimate is
     the last surface's lowest point within the design's radius of the last centre."""
@@ -160,7 +161,7 @@ def refine(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.
             design = design[nearest > 0.25 * half_width]
         evaluate_many(list(design))
         points, losses = evaluated()
-        near = np.linalg.norm(points - centre, axis=1) <= 2.0 * radius
+        near = np.linalg.norm(points - centre, axis=1) <= REACH * radius
         surface = fit_quadratic(points[near], np.asarray(losses)[near] ** 2, centre, relative=True)
         lowest = np.clip(surface.lowest_within(radius), *box)
         moved = float(np.linalg.norm(lowest - centre))
