@@ -147,11 +147,11 @@ def refine(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.
            box: tuple[np.ndarray, np.ndarray], evaluated: Callable[[], tuple[np.ndarray, np.ndarray]],
            rounds: int = 3) -> Refinement:
     """Rounds of a composite design around ``centre`` (clipped to ``box``; a point evaluated near a design point
-    stands in for it), each followed by a quadratic fitted to
-    the squared losses of every evaluation within ``REACH`` design radii (``evaluated()``: all points and
-    losses so far, the design's among them) and a move to its lowest point within the design's radius; until the
-    move stays within a half width (the minimum lies inside the design) or ``rounds`` are done. The estimate is
-    the last surface's lowest point within the design's radius of the last centre."""
+    stands in for it), each followed by a quadratic fitted to the squared losses of every evaluation within
+    ``REACH`` design radii (``evaluated()``: all points and losses so far, the design's among them) and a move to
+    its lowest point within the design's radius; until the move stays within a half width (the minimum lies inside
+    the design) or ``rounds`` are done. The estimate is the last surface's lowest point within the design's radius
+    of the last centre."""
     radius = np.sqrt(len(centre)) * half_width
     for done in range(1, rounds + 1):
         design = np.unique(np.clip(composite_design(centre, half_width), *box), axis=0)
