@@ -40,11 +40,6 @@ evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
 bar = tqdm(desc=f"{output.parent.parent.name} {output.parent.name}", unit="evaluation")
 
 
-def evaluated() -> tuple[np.ndarray, np.ndarray]:
-    """Every point this fit has evaluated so far (a resumed fit: replayed) and its loss."""
-    return np.array([r["x"] for r in evaluations.requested]), np.array([r["loss"] for r in evaluations.requested])
-
-
 def describe(x: np.ndarray) -> str:
     return ", ".join(f"{n} {v:.4g}" for n, v in zip(names, np.exp(x), strict=True))
 
@@ -74,16 +69,24 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
     x, _ = start_searches(evaluate, list(starts), start_step((high - low).min(), settings["samples"], len(names)),
                           settings["evaluations"] // len(starts), (low, high), side_by_side=True)
     refinement = refine(lambda points: evaluations.evaluate_many(joint, points, "surface"), x,
-                        settings["half_width"], (low, high), evaluated, settings["rounds"])
+                        settings["half_width"], (low, high), evaluations.seen, settings["rounds"])
     if not refinement.converged:
         log.warning("the surface's lowest point still moved after %d rounds: the estimate is the lowest point "
                     "within the last design", refinement.rounds)
-    x, loss = refinement.x, evaluate(refinement.x, "estimate")
+    def simulate(x: np.ndarray) -> dict:
+        """Each setup's comparison at ``x``, with its frames, IoU and shear rates."""
+        return dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))
+
+    x, details = refinement.x, simulate(refinement.x)
+    loss = evaluations.evaluate_many(lambda _: [float(np.mean([d.loss for d in details.values()]))], [x],
+                                     "estimate")[0]
+    log.info("estimate: loss %.5g px, %s", loss, describe(x))
     best = min(evaluations.requested, key=lambda r: r["loss"])
     if loss > (1.0 + settings["tolerance"]) * best["loss"]:
         log.warning("the surface's lowest point loses %.5g px, more than the tolerance above the best evaluated "
                     "(%.5g px): the best evaluated is the estimate", loss, best["loss"])
         x, loss = np.array(best["x"]), best["loss"]
+        details = simulate(x)
     extents, open_ends = refinement.surface.extents(settings["tolerance"], refinement.reach, x)
     if open_ends.any():
         log.warning("the region within the tolerance goes on past the surface's reach (%.2f log units) at %s: "
@@ -91,15 +94,14 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
                     ", ".join(f"{n}'s {side}" for n, ends in zip(names, open_ends, strict=True)
                               for side, end in zip(("low", "high"), ends, strict=True) if end))
     extents = np.column_stack([np.clip(extents[:, 0], low, x), np.clip(extents[:, 1], x, high)])
-    intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)))
-                 for n, v, (lo, hi) in zip(names, x, extents, strict=True)}
+    intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)), tuple(ends.tolist()))
+                 for n, v, (lo, hi), ends in zip(names, x, extents, open_ends, strict=True)}
     evidence = describe_surface(refinement.surface, names) | {"half_width_log": refinement.half_width,
                                                               "rounds": refinement.rounds,
                                                               "converged": refinement.converged}
-    details = dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))
 bar.close()
 
-spread = tolerated(*evaluated(), settings["tolerance"])
+spread = tolerated(*evaluations.seen(), settings["tolerance"])
 ranges = ", ".join(f"{n} {np.exp(lo):.3g}-{np.exp(hi):.3g}" for n, (lo, hi) in zip(names, spread.ranges, strict=True))
 if spread.ridge:
     log.warning("the recordings leave the law on a ridge: %d evaluated materials within the tolerance span %s%s",
@@ -108,14 +110,13 @@ else:
     log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
 intervals = spread.widen(intervals, names)
 band = shear_rate_band(list(details.values()))
-params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined and not ends.any(),
-                           "ci95_open": ends.tolist()}
-          for (n, i), ends in zip(intervals.items(), open_ends, strict=True)}
+params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined,
+                           "ci95_open": list(i.open)} for n, i in intervals.items()}
 if law.n is not None:
     params[RESULT_KEYS["n"]] = {"value": law.n, "ci95": [law.n, law.n], "determined": True, "fixed": True}
 for n, i in intervals.items():
     log.info("%s = %.4g, 95%% interval [%.4g, %.4g]%s", n, i.value, i.low, i.high,
-             "" if params[RESULT_KEYS[n]]["determined"] else " (not determined by the recordings)")
+             "" if i.determined else " (not determined by the recordings)")
 if band is not None:
     log.info("shear rates reached (5th-95th percentile of moving particles): %.3g-%.3g 1/s", *band)
 else:

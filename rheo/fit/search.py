@@ -112,6 +112,12 @@ class EvaluationLog:
                     self.requested.append(record)
             return [record["loss"] for record in found]
 
+    def seen(self) -> tuple[np.ndarray, np.ndarray]:
+        """The points this run has asked for so far (a resumed run: those replayed up to here) and their losses: what
+        a search that goes on from them may use, the same in the interrupted run and the resumed one."""
+        with self._lock:
+            return (np.array([r["x"] for r in self.requested]), np.array([r["loss"] for r in self.requested]))
+
     def record(self, phase: str, x) -> dict:
         """The stored record of a point evaluated in ``phase``."""
         with self._lock:

@@ -11,25 +11,30 @@ included); ``Tolerated.widen`` grows the intervals to the evaluated materials wi
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 Z95 = 1.959964
-# A parameter is determined when its 95 % interval spans less than this factor (low to high).
+# A parameter is determined when its 95 % interval spans less than this factor (low to high) and is closed.
 DETERMINED_SPAN = 4.0
 
 
 @dataclass
 class Interval:
+    """A parameter's value and 95 % interval; an open end (``open``: low, high) is a lower bound on the interval's
+    reach there (the region within the tolerance goes on past what the fit evaluated)."""
+
     value: float
     low: float
     high: float
+    open: tuple[bool, bool] = (False, False)
 
     @property
     def determined(self) -> bool:
-        return self.high / self.low < DETERMINED_SPAN
+        return self.high / self.low < DETERMINED_SPAN and not any(self.open)
 
     @property
     def sigma_log(self) -> float:
@@ -149,8 +154,8 @@ class Tolerated:
     def widen(self, intervals: dict[str, Interval], names: Sequence[str]) -> dict[str, Interval]:
         """Each interval (of the parameters ``names``, in order) grown to hold these materials' range along its
         parameter: a conditional profile misses where the parameters trade against each other."""
-        return {name: Interval(intervals[name].value, min(intervals[name].low, float(np.exp(low))),
-                               max(intervals[name].high, float(np.exp(high))))
+        return {name: dataclasses.replace(intervals[name], low=min(intervals[name].low, float(np.exp(low))),
+                                          high=max(intervals[name].high, float(np.exp(high))))
                 for name, (low, high) in zip(names, self.ranges, strict=True)}
 
 

@@ -126,11 +126,8 @@ def test_an_interrupted_refinement_replays_its_stored_evaluations_and_ends_where
                 for p in points]  # not quadratic: different evaluations give different surfaces
 
     def run(log, stop_after=None):
-        def evaluated():
-            return np.array([r["x"] for r in log.requested]), np.array([r["loss"] for r in log.requested])
-
         return refine(lambda points: log.evaluate_many(lambda p: losses(p, stop_after), points, "surface"),
-                      minimum + 0.6, 0.2, (minimum - 3.0, minimum + 3.0), evaluated)
+                      minimum + 0.6, 0.2, (minimum - 3.0, minimum + 3.0), log.seen)
 
     whole = run(EvaluationLog(tmp_path / "whole.json", "key"))
     evaluations = len(calls)
