@@ -54,8 +54,12 @@ class Quadratic:
             return self.centre + step(0.0)
         low = max(-eigenvalues[0], 0.0) + 1e-12 * max(abs(eigenvalues).max(), 1.0)
         high = low + np.linalg.norm(self.gradient) / radius + abs(eigenvalues).max()
-        if np.linalg.norm(step(low)) <= radius:  # the gradient is (nearly) normal to the lowest curvature: go along it
-            return self.centre + radius * basis[:, 0] * -np.sign(g[0] or 1.0)
+        if np.linalg.norm(step(low)) <= radius:
+            # the "hard case": the gradient is (nearly) normal to the lowest curvature; step as far as the other
+            # directions ask and go the rest of the way to the sphere along the lowest curvature
+            d = step(low) - basis[:, 0] * (basis[:, 0] @ step(low))
+            along = np.sqrt(max(radius ** 2 - float(d @ d), 0.0))
+            return self.centre + d - np.sign(g[0] or 1.0) * along * basis[:, 0]
         for _ in range(100):
             middle = 0.5 * (low + high)
             low, high = (middle, high) if np.linalg.norm(step(middle)) > radius else (low, middle)

@@ -34,10 +34,12 @@ def test_too_few_points_for_a_quadratic_is_an_error():
         fit_quadratic(np.zeros((9, 3)), np.zeros(9), CENTRE)
 
 
-@pytest.mark.parametrize("hessian", [HESSIAN, np.diag([2.0, -1.0, 0.5])], ids=["convex", "saddle"])
+@pytest.mark.parametrize(("hessian", "gradient"), [(HESSIAN, GRADIENT), (np.diag([2.0, -1.0, 0.5]), GRADIENT),
+                                                  (np.diag([2.0, -1.0, 0.5]), GRADIENT * [1.0, 0.0, 1.0])],
+                         ids=["convex", "saddle", "saddle, gradient normal to its lowest curvature"])
 @pytest.mark.parametrize("radius", [0.05, 0.3, 5.0])
-def test_the_lowest_point_within_a_radius_is_the_lowest_of_the_sphere_and_the_ball(hessian, radius):
-    surface = Quadratic(CENTRE, 1.0, GRADIENT, hessian)
+def test_the_lowest_point_within_a_radius_is_the_lowest_of_the_sphere_and_the_ball(hessian, gradient, radius):
+    surface = Quadratic(CENTRE, 1.0, gradient, hessian)
     lowest = surface.lowest_within(radius)
     assert np.linalg.norm(lowest - CENTRE) <= radius * (1 + 1e-9)
     directions = RNG.normal(size=(200000, 3))
