@@ -2,12 +2,12 @@
 information criterion so that a free parameter does not win by default.
 
 A fit's per-frame boundary distances over the fitted frames (of every setup) are taken as Gaussian residuals of one
-unknown scale; its Bayesian information criterion is then N log(SSE / N) + k log N (N frames, k fitted parameters).
-An effect is named when its refit lowers the criterion below the base model's by more than ``EVIDENCE`` (6: strong
-evidence on Kass and Raftery's scale), and the lowest criterion wins; otherwise nothing is missing. The frames held
-out of every fit judge the choice afterwards. (The residual of a base fit is not noise but the simulation's own
-error, which any extra freedom absorbs in part: at 2, positive evidence, a concealed case with no effect named wall
-adhesion at -2.1.)
+unknown scale; its Bayesian information criterion is then N log(SSE / N) + k log N (N frames, k fitted parameters). An
+effect is named when its refit lowers the criterion below the base model's by more than ``diagnose.evidence`` (by
+default 6: strong evidence on Kass and Raftery's scale), and the lowest criterion wins; otherwise nothing is missing.
+The frames held out of every fit judge the choice afterwards. (The residual of a base fit is not noise but the
+simulation's own error, which any extra freedom absorbs in part: at 2, positive evidence, a concealed case with no
+effect named wall adhesion at -2.1.)
 """
 
 from __future__ import annotations
@@ -23,7 +23,6 @@ import numpy as np
 from rheo.diagnose.candidates import Candidate
 from rheo.fit.search import simplex_search
 
-EVIDENCE = 6.0  # least drop of the information criterion that names an effect
 STOP_RISE = 1.25  # a profile stops climbing once a rung's loss exceeds the lowest so far by this factor
 
 
@@ -107,7 +106,7 @@ def refits(candidates: Sequence[Candidate], search: Callable[[Candidate], Refit]
         return list(threads.map(search, candidates))
 
 
-def choose(base: Refit, found: Sequence[Refit], evidence: float = EVIDENCE) -> Refit | None:
+def choose(base: Refit, found: Sequence[Refit], evidence: float) -> Refit | None:
     """The refit with the lowest criterion, if it undercuts the base model's by more than ``evidence``."""
     if not found:
         return None

@@ -7,9 +7,11 @@ import numpy as np
 import pytest
 
 from rheo.diagnose.candidates import CANDIDATES, Law
-from rheo.diagnose.selection import EVIDENCE, Refit, choose, information_criterion, profile_refit
+from rheo.diagnose.selection import Refit, choose, information_criterion, profile_refit
 from rheo.experiments.dam_break import Effects
 from rheo.fit.search import EvaluationLog
+
+EVIDENCE = 6.0  # diagnose.evidence's default
 
 
 def test_information_criterion_is_the_gaussian_bic_of_the_frames():
@@ -28,10 +30,10 @@ def _refit(name: str, scale: float, parameters: int) -> Refit:
 def test_an_effect_is_named_only_when_it_pays_for_its_parameter():
     base = _refit("base", 1.0, 2)
     # one parameter more costs log 8 = 2.08: a 10 % smaller residual gains 8 log 0.81 = -1.69, short of it
-    assert choose(base, [_refit("floor_friction", 0.9, 3)]) is None
+    assert choose(base, [_refit("floor_friction", 0.9, 3)], EVIDENCE) is None
     strong, weak = _refit("floor_friction", 0.5, 3), _refit("air_drag", 0.7, 3)
-    assert choose(base, [weak, strong]) is strong
-    assert choose(base, []) is None
+    assert choose(base, [weak, strong], EVIDENCE) is strong
+    assert choose(base, [], EVIDENCE) is None
     assert strong.criterion < base.criterion - EVIDENCE
 
 
