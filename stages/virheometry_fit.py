@@ -16,9 +16,7 @@ from tqdm.auto import tqdm
 from rheo.diagnose.candidates import Law
 from rheo.fit.dam_break import MOVING_RATE, RESULT_KEYS, comparisons, setup_files, shear_rate_band
 from rheo.fit.parallel import Evaluator
-from rheo.fit.search import EvaluationLog, start_searches, start_step, survey_points
-from rheo.fit.surface import describe_surface, refine
-from rheo.fit.uncertainty import Interval, tolerated
+from rheo.fit.search import EvaluationLog, estimate, start_step, survey_points
 from rheo.io import write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import frames_figure
@@ -57,58 +55,42 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
             log.info("evaluation %d: loss %.5g px, %s", bar.n, loss, describe(x))
         return losses
 
-    def evaluate(x: np.ndarray, phase: str) -> float:
-        return evaluations.evaluate_many(joint, [x], phase)[0]
-
     points = survey_points(0.5 * (low + high), 0.5 * (high - low), settings["samples"])
     # in chunks that keep every worker busy, each stored as it ends
     chunk = max(smk.threads, 1)
     losses = np.concatenate([evaluations.evaluate_many(joint, list(points[i:i + chunk]), "survey")
                              for i in range(0, len(points), chunk)])
     starts = points[np.argsort(losses, kind="stable")[:settings["starts"]]]
-    x, _ = start_searches(evaluate, list(starts), start_step((high - low).min(), settings["samples"], len(names)),
-                          settings["evaluations"] // len(starts), (low, high), side_by_side=True)
-    refinement = refine(lambda points: evaluations.evaluate_many(joint, points, "surface"), x,
-                        settings["half_width"], (low, high), evaluations.seen, settings["rounds"])
-    if not refinement.converged:
-        log.warning("the surface's lowest point still moved after %d rounds: the estimate is the lowest point "
-                    "within the last design", refinement.rounds)
+
     def simulate(x: np.ndarray) -> dict:
         """Each setup's comparison at ``x``, with its frames, IoU and shear rates."""
         return dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))
 
-    x, details = refinement.x, simulate(refinement.x)
-    loss = evaluations.evaluate_many(lambda _: [float(np.mean([d.loss for d in details.values()]))], [x],
-                                     "estimate")[0]
+    simulated: dict[tuple, dict] = {}
+
+    def evaluate_estimate(x: np.ndarray) -> float:
+        """The estimate's loss, from a simulation whose details (frames, IoU, shear rates) the results keep."""
+        simulated[tuple(x)] = simulate(x)
+        return evaluations.evaluate_many(lambda _: [float(np.mean([d.loss for d in simulated[tuple(x)].values()]))],
+                                         [x], "estimate")[0]
+
+    result = estimate(lambda points, phase: evaluations.evaluate_many(joint, points, phase), list(starts), names,
+                      seen=evaluations.seen, evaluations=settings["evaluations"],
+                      start_step=start_step((high - low).min(), settings["samples"], len(names)),
+                      half_width=settings["half_width"], rounds=settings["rounds"], tolerance=settings["tolerance"],
+                      box=(low, high), side_by_side=True, evaluate_estimate=evaluate_estimate)
+    x, loss, intervals = result.log_values, result.loss, result.intervals
     log.info("estimate: loss %.5g px, %s", loss, describe(x))
-    best = min(evaluations.requested, key=lambda r: r["loss"])
-    if loss > (1.0 + settings["tolerance"]) * best["loss"]:
-        log.warning("the surface's lowest point loses %.5g px, more than the tolerance above the best evaluated "
-                    "(%.5g px): the best evaluated is the estimate", loss, best["loss"])
-        x, loss = np.array(best["x"]), best["loss"]
-        details = simulate(x)
-    extents, open_ends = refinement.surface.extents(settings["tolerance"], refinement.reach, x)
-    if open_ends.any():
-        log.warning("the region within the tolerance goes on past the surface's reach (%.2f log units) at %s: "
-                    "those ends of the intervals are lower bounds", refinement.reach,
-                    ", ".join(f"{n}'s {side}" for n, ends in zip(names, open_ends, strict=True)
-                              for side, end in zip(("low", "high"), ends, strict=True) if end))
-    extents = np.column_stack([np.clip(extents[:, 0], low, x), np.clip(extents[:, 1], x, high)])
-    intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)), tuple(ends.tolist()))
-                 for n, v, (lo, hi), ends in zip(names, x, extents, open_ends, strict=True)}
-    evidence = describe_surface(refinement.surface, names) | {"half_width_log": refinement.half_width,
-                                                              "rounds": refinement.rounds,
-                                                              "converged": refinement.converged}
+    details = simulated.get(tuple(x)) or simulate(x)
 bar.close()
 
-spread = tolerated(*evaluations.seen(), settings["tolerance"])
+spread = result.within_tolerance
 ranges = ", ".join(f"{n} {np.exp(lo):.3g}-{np.exp(hi):.3g}" for n, (lo, hi) in zip(names, spread.ranges, strict=True))
 if spread.ridge:
     log.warning("the recordings leave the law on a ridge: %d evaluated materials within the tolerance span %s%s",
                 spread.count, ranges, " (one setup only)" if len(setups) == 1 else "")
 else:
     log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
-intervals = spread.widen(intervals, names)
 band = shear_rate_band(list(details.values()))
 params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined,
                            "ci95_open": list(i.open)} for n, i in intervals.items()}
@@ -130,7 +112,8 @@ write_json_atomic(output, {
                          **{RESULT_KEYS[n]: np.exp(r).tolist() for n, r in zip(names, spread.ranges, strict=True)},
                          "spread_direction_log": None if spread.direction is None
                          else dict(zip(names, spread.direction.tolist(), strict=True))},
-    "shear_rate_band_per_s": band, "loss_px": loss, "evidence": evidence, "tolerance": settings["tolerance"],
+    "shear_rate_band_per_s": band, "loss_px": loss, "evidence": result.evidence["all_free"],
+    "tolerance": settings["tolerance"],
     "elastic_constants_Pa": {"mu": simulation["mu"], "lam": simulation["lam"]},
     "runtime_s": evaluations.earlier_seconds + time.time() - started})
 

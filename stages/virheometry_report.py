@@ -9,8 +9,9 @@ import numpy as np
 from rheo.experiments.rheometer import read_flow_curve
 from rheo.fit.dam_break import RESULT_KEYS
 from rheo.io import read_json, write_text_atomic
+from rheo.report.fit import interval_text
 from rheo.report.html import figure_tag, image_tag, page, table_tag
-from rheo.report.virheometry import flow_figure, interval_text, rheometer_comparison
+from rheo.report.virheometry import flow_figure, rheometer_comparison
 from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)

@@ -5,8 +5,9 @@ import numpy as np
 
 from rheo.fit.dam_break import RESULT_KEYS
 from rheo.io import read_json, write_text_atomic
+from rheo.report.fit import interval_text
 from rheo.report.html import figure_tag, page, table_tag
-from rheo.report.virheometry import interval_text, summary_figure
+from rheo.report.virheometry import summary_figure
 from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)

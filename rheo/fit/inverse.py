@@ -19,7 +19,8 @@ import torch
 from tqdm.auto import tqdm
 
 from rheo.experiments.scene import material, simulator
-from rheo.fit.observations import Observations, sample_rays
+from rheo.fit.observations import Observations, load, sample_rays
+from rheo.fit.search import SilhouetteTarget
 from rheo.io import write_atomic
 from rheo.physics import Simulator
 from rheo.physics.simulator import Trajectory
@@ -199,3 +200,20 @@ def build_problem(exp: dict, obs: Observations, seed_file: str | Path, dtype=tor
                    torch.as_tensor(seed["colour"], dtype=torch.float32), float(seed["spacing"]),
                    exp["material"]["convention"], exp["material"].get("density", 1000.0),
                    silhouette=exp["fit"]["loss"] == "silhouette")
+
+
+def silhouette_objectives(exp: dict, recordings: str, matte: str, cameras: str, seed_file: str,
+                          frames: int | None = None) -> dict[str, Callable[[np.ndarray], float]]:
+    """The objective "loss" for ``rheo.fit.parallel.Evaluator``: the mean boundary distance (px) between the
+    silhouettes simulated from z = (log-parameters, initial velocity) and the masks of frames 1 .. ``frames`` - 1
+    (every frame if None)."""
+    problem = build_problem(exp, load(recordings, matte, cameras, frames=frames), seed_file)
+    target = SilhouetteTarget(problem.obs, problem.obs.frames - 1)
+    count = len(problem.names)
+
+    def loss(z: np.ndarray) -> float:
+        with torch.no_grad():
+            trajectory = problem.simulate(torch.as_tensor(z[:count]), torch.as_tensor(z[count:]), target.frames)
+        return float(target.distances(trajectory.x.numpy(), problem.spacing).mean())
+
+    return {"loss": loss}

@@ -2,12 +2,13 @@
 
 The loss is the mean symmetric boundary distance (pixels) between the simulated particles' silhouettes and the masks,
 over every view and frame: deterministic (every pixel, no random rays) and informative even far from the optimum,
-where overlap losses are flat. Its minimiser is searched in two steps: a quasi-random survey of a wide box of
-log-parameters around the initial guess, then short Nelder-Mead searches from the survey's best few points (two
-materials may fit nearly equally well in different basins, and the survey's best need not lie in the better one),
-continued from the best of them. Gradient descent on
-the rendering loss stalled in the curved, nearly flat valley between soft-and-strong and stiff-and-weak materials;
-the survey finds the right valley and the simplex needs no gradient of a loss that pixel edges make rough.
+where overlap losses are flat. Its minimiser is searched in three steps: a quasi-random survey of a wide box of
+log-parameters, short Nelder-Mead searches from the survey's best few points (two materials may fit nearly equally
+well in different basins, and the survey's best need not lie in the better one), then the surface of the loss around
+the best point found (``rheo.fit.surface``), whose lowest point is the estimate and whose region within the
+tolerance gives the intervals. Gradient descent on the rendering loss stalled in the curved, nearly flat valley
+between soft-and-strong and stiff-and-weak materials; the survey finds the right valley, and neither the simplex nor
+the surface needs a gradient of a loss that pixel edges make rough.
 
 Every evaluation is stored (in a JSON file written atomically after each one), so an interrupted search replays the
 stored values and goes on from where it stopped.
@@ -29,7 +30,8 @@ from scipy.optimize import minimize
 from scipy.stats import qmc
 
 from rheo.fit.observations import Observations
-from rheo.fit.uncertainty import Evaluate, Interval, profile_intervals
+from rheo.fit.surface import describe_surface, refine
+from rheo.fit.uncertainty import Evaluate, Interval, Tolerated, tolerated
 from rheo.io import write_atomic
 from rheo.render.silhouette import boundary_distance, distance_to, silhouette
 
@@ -148,15 +150,6 @@ def start_step(width: float, samples: int, dimensions: int) -> float:
     return 0.25 * width / samples ** (1.0 / dimensions)
 
 
-def survey(evaluate: Evaluate, centre: np.ndarray, half_width: float | np.ndarray, samples: int,
-           seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """The ``survey_points`` and their losses, both ordered from the lowest loss."""
-    points = survey_points(centre, half_width, samples, seed)
-    values = np.array([evaluate(x, "survey") for x in points])
-    order = np.argsort(values, kind="stable")
-    return points[order], values[order]
-
-
 def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float | np.ndarray, evaluations: int,
                    phase: str, tolerance: float = 0.01,
                    box: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float]:
@@ -193,66 +186,127 @@ def start_searches(evaluate: Evaluate, starts: Sequence[np.ndarray], step: float
     return found[best]
 
 
-def multistart_search(evaluate: Evaluate, starts: Sequence[np.ndarray], start_step: float, step: float,
-                      evaluations: int, box: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, float]:
-    """Nelder-Mead from each of ``starts`` (initial simplex ``start_step``) with half of ``evaluations`` shared among
-    them, then from the best point found with a fresh simplex of ``step`` and the remaining evaluations."""
-    if len(starts) == 1:
-        return simplex_search(evaluate, starts[0], step, evaluations, "full", box=box)
-    each = evaluations // (2 * len(starts))
-    x, _ = start_searches(evaluate, starts, start_step, each, box)
-    return simplex_search(evaluate, x, step, evaluations - each * len(starts), "full", box=box)
-
-
 @dataclass
 class Estimate:
     """A fit's result: log-parameters, loss, 95 % intervals, the parameters held at their initial guess because the
-    recording does not determine them, and the evidence behind the intervals."""
+    recordings do not determine them, the evaluated materials within the tolerance of the best (of the search with
+    every parameter free) and the evidence behind the intervals."""
 
     log_values: np.ndarray
     loss: float
     intervals: dict[str, Interval]
+    within_tolerance: Tolerated
     held: list[str] = field(default_factory=list)
     evidence: dict = field(default_factory=dict)
 
 
-def estimate(evaluate: Evaluate, starts: Sequence[np.ndarray], guess: np.ndarray, names: Sequence[str], *,
-             evaluations: int, start_step: float, step: float, profile_step: float, tolerance: float,
-             box: tuple[np.ndarray, np.ndarray]) -> Estimate:
-    """Nelder-Mead from ``starts`` (``multistart_search``, inside the survey's ``box``), then intervals from profiles
-    of the loss. Parameters the recording
-    does not determine (interval wider than a factor 4) and whose initial guess lies inside their interval are held
-    at the guess, the others fitted again with them held: a flat direction would otherwise leave them wherever the
-    search's noise took them. (A stiff material's moduli, say, are undetermined above some value but matter below
-    it: a guess below stays unused.)"""
-    everything = list(range(len(guess)))
-    x, _ = multistart_search(evaluate, starts, start_step, step, evaluations, box)
-    x, loss, intervals, evidence = profile_intervals(evaluate, x, everything, names, profile_step, tolerance, box)
-    # an undetermined parameter goes back to its guess where the guess is as good as any value (inside the interval)
-    held = [i for i in everything if not intervals[names[i]].determined
-            and intervals[names[i]].low <= np.exp(guess[i]) <= intervals[names[i]].high]
-    result = Estimate(x, loss, intervals, [names[i] for i in held], {"all_free": evidence})
+EvaluateMany = Callable[[list[np.ndarray], str], list[float]]  # losses of points (log-parameters) in a named phase
+
+
+def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: Sequence[str], *,
+             seen: Callable[[], tuple[np.ndarray, np.ndarray]], evaluations: int, start_step: float,
+             half_width: float, rounds: int, tolerance: float, box: tuple[np.ndarray, np.ndarray],
+             guess: np.ndarray | None = None, side_by_side: bool = False,
+             evaluate_estimate: Callable[[np.ndarray], float] | None = None) -> Estimate:
+    """Nelder-Mead from each of ``starts`` (``evaluations`` shared among them, inside ``box``), then the surface of
+    the loss around the best point found (``rheo.fit.surface.refine``): its lowest point is the estimate (the best
+    evaluated where that is better by more than the tolerance) and its region within the tolerance gives the
+    intervals, grown to the evaluated materials within it. ``seen()`` gives every point evaluated so far and its loss
+    (``EvaluationLog.seen``); ``evaluate_estimate`` evaluates the estimate (by default as phase "estimate").
+
+    With a ``guess``, parameters the recordings do not determine and whose guess lies inside their interval (or
+    beyond an open end) are held at the guess and the surface of the others fitted again, unless that loses more
+    than the tolerance: a flat direction would otherwise leave them wherever the roughness of the loss took them.
+    (A stiff material's moduli, say, are undetermined above some value but matter below it: a guess below stays
+    unused.)"""
+    evaluate_estimate = evaluate_estimate or (lambda x: evaluate_many([x], "estimate")[0])
+    x, _ = start_searches(lambda x, phase: evaluate_many([x], phase)[0], starts, start_step,
+                          evaluations // len(starts), box, side_by_side)
+    everything = list(range(len(x)))
+    x, loss, intervals, evidence = surface_estimate(evaluate_many, x, everything, names, seen, half_width, rounds,
+                                                    tolerance, box, evaluate_estimate, "surface")
+    result = Estimate(x, loss, intervals, tolerated(*seen(), tolerance), evidence={"all_free": evidence})
+    held = [] if guess is None else [i for i in everything if _inside(intervals[names[i]], float(np.exp(guess[i])))]
     free = [i for i in everything if i not in held]
     if not held or not free:
         return result
     fixed = x.copy()
     fixed[held] = guess[held]
-
-    def partial(y: np.ndarray, phase: str) -> float:
-        z = fixed.copy()
-        z[free] = y
-        return evaluate(z, phase)
-
-    y, _ = simplex_search(partial, fixed[free], step, max(evaluations // 2, 1), "held",
-                          box=(box[0][free], box[1][free]))
-    fixed[free] = y
-    x, loss, free_intervals, evidence = profile_intervals(evaluate, fixed, free, names, profile_step, tolerance, box,
-                                                 phase="profile, held")
+    y, held_loss, free_intervals, evidence = surface_estimate(evaluate_many, fixed, free, names, seen, half_width,
+                                                              rounds, tolerance, box, evaluate_estimate,
+                                                              "surface, held")
+    result.evidence["held_at_guess"] = evidence
+    if held_loss > (1.0 + tolerance) * loss:
+        logger.warning("with %s at the initial guess the loss is %.5g, more than the tolerance above %.5g: nothing "
+                       "is held", ", ".join(names[i] for i in held), held_loss, loss)
+        return result
+    x, loss = y, held_loss
     for i in held:
         joint = intervals[names[i]]
         value = float(np.exp(guess[i]))
-        intervals[names[i]] = Interval(value, min(joint.low, value), max(joint.high, value))
+        intervals[names[i]] = Interval(value, min(joint.low, value), max(joint.high, value), joint.open)
     intervals.update(free_intervals)
     result.log_values, result.loss, result.intervals = x, loss, intervals
-    result.evidence["held_at_guess"] = evidence
+    result.held = [names[i] for i in held]
     return result
+
+
+def _inside(interval: Interval, value: float) -> bool:
+    """Whether an undetermined parameter's ``value`` lies in its interval, or beyond an open end (the region within
+    the tolerance goes on past it)."""
+    return not interval.determined and ((interval.low <= value or interval.open[0])
+                                        and (value <= interval.high or interval.open[1]))
+
+
+def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequence[int], names: Sequence[str],
+                     seen: Callable[[], tuple[np.ndarray, np.ndarray]], half_width: float, rounds: int,
+                     tolerance: float, box: tuple[np.ndarray, np.ndarray],
+                     evaluate_estimate: Callable[[np.ndarray], float], phase: str
+                     ) -> tuple[np.ndarray, float, dict[str, Interval], dict]:
+    """The surface of the loss along the ``free`` coordinates (the others held at ``centre``'s), fitted to the points
+    evaluated with the others held there: the estimate, its loss, the free parameters' intervals and the evidence
+    (the surface, its rounds, open ends)."""
+    free = list(free)
+    held = [i for i in range(len(centre)) if i not in free]
+
+    def embed(y: np.ndarray) -> np.ndarray:
+        z = centre.copy()
+        z[free] = y
+        return z
+
+    def seen_here() -> tuple[np.ndarray, np.ndarray]:
+        points, losses = seen()
+        if not len(points):
+            return points, losses
+        here = np.all(points[:, held] == centre[held], axis=1)
+        return points[here][:, free], losses[here]
+
+    inner = (box[0][free], box[1][free])
+    refinement = refine(lambda points: evaluate_many([embed(y) for y in points], phase), centre[free], half_width,
+                        inner, seen_here, rounds)
+    if not refinement.converged:
+        logger.warning("the surface's lowest point still moved after %d rounds: the estimate is the lowest point "
+                       "within the last design", refinement.rounds)
+    y, loss = refinement.x, evaluate_estimate(embed(refinement.x))
+    points, losses = seen_here()
+    best = int(np.argmin(losses))
+    if loss > (1.0 + tolerance) * losses[best]:
+        logger.warning("the surface's lowest point loses %.5g, more than the tolerance above the best evaluated "
+                       "(%.5g): the best evaluated is the estimate", loss, losses[best])
+        y, loss = points[best], float(losses[best])
+    extents, open_ends = refinement.surface.extents(tolerance, refinement.reach, y)
+    free_names = [names[i] for i in free]
+    if open_ends.any():
+        logger.warning("the region within the tolerance goes on past the surface's reach (%.2f log units) at %s: "
+                       "those ends of the intervals are lower bounds", refinement.reach,
+                       ", ".join(f"{n}'s {side}" for n, ends in zip(free_names, open_ends, strict=True)
+                                 for side, end in zip(("low", "high"), ends, strict=True) if end))
+    extents = np.column_stack([np.clip(extents[:, 0], inner[0], y), np.clip(extents[:, 1], y, inner[1])])
+    intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)), tuple(ends.tolist()))
+                 for n, v, (lo, hi), ends in zip(free_names, y, extents, open_ends, strict=True)}
+    intervals = tolerated(points, losses, tolerance).widen(intervals, free_names)
+    evidence = describe_surface(refinement.surface, free_names) | {
+        "half_width_log": refinement.half_width, "rounds": refinement.rounds, "converged": refinement.converged,
+        "reach_log": refinement.reach, "open_ends": {n: list(ends) for n, ends in zip(free_names, open_ends.tolist(),
+                                                                                      strict=True)}}
+    return embed(y), loss, intervals, evidence

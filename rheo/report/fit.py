@@ -111,6 +111,13 @@ def gif_tag(frames: list[np.ndarray], caption: str, fps: float = 6.0) -> str:
     return image_tag(buf.getvalue(), "gif", caption)
 
 
+def interval_text(entry: dict) -> str:
+    """A fitted parameter's 95 % interval, "[low, high]", an open end (the region within the tolerance goes on past
+    the fit's reach) marked < or >."""
+    (low, high), (open_low, open_high) = entry["ci95"], entry.get("ci95_open", [False, False])
+    return f"[{'<' if open_low else ''}{low:.3g}, {'>' if open_high else ''}{high:.3g}]"
+
+
 def parameter_rows(params: dict) -> tuple[list[str], list[list[str]], list[str]]:
     """The parameter table: truth where known, initial guess, recovered, interval, % error, determined."""
     header = ["parameter", "truth", "initial guess", "recovered", "95 % interval", "error", "determined"]
@@ -118,7 +125,7 @@ def parameter_rows(params: dict) -> tuple[list[str], list[list[str]], list[str]]
     for name, p in params.items():
         error = p.get("error")
         rows.append([SYMBOLS.get(name, name), f"{p['truth']:.4g}" if "truth" in p else "unknown",
-                     f"{p['initial']:.4g}", f"{p['value']:.4g}", f"[{p['ci95'][0]:.3g}, {p['ci95'][1]:.3g}]",
+                     f"{p['initial']:.4g}", f"{p['value']:.4g}", interval_text(p),
                      f"{error:+.1%}" if error is not None else "-", "yes" if p["determined"] else "no"])
         classes.append("" if error is None else ("good" if abs(error) <= 0.1 else "bad"))
     return header, rows, classes
@@ -133,12 +140,14 @@ def render(name: str, params: dict, sections: list[tuple[str, str]], config: dic
             + ", ".join(f"{k} = {v:.4g}" for k, v in params["herschel_bulkley"].items()) + ".</p>",
             table_tag(header, rows, classes)]
     undetermined = [SYMBOLS.get(k, k) for k, p in params["parameters"].items() if not p["determined"]]
-    body.append(f"<p>Intervals: the materials whose loss lies within {params['tolerance']:.0%} of the best fit's (the "
-                "fit model's own error), along each parameter with the others at the optimum.</p>")
+    body.append(f"<p>Intervals: each parameter's range over the materials whose loss lies within "
+                f"{params['tolerance']:.0%} of the best fit's (the fit model's own error), from the surface fitted to "
+                "the loss around the estimate, trade-offs between parameters included; &lt; or &gt; marks an end "
+                "where that region goes on past the evaluations' reach.</p>")
     if undetermined:
         body.append("<p>Not determined by this recording: " + ", ".join(undetermined) + " (the interval spans more "
-                    "than a factor 4: the loss barely changes along it). Those whose initial guess lies inside "
-                    "their interval were held at it while the other parameters were fitted.</p>")
+                    "than a factor 4 or has an open end: the loss barely changes along it). Those whose initial guess "
+                    "lies inside their interval were held at it while the other parameters were fitted again.</p>")
     for heading, content in sections:
         body.append(f"<h2>{html.escape(heading)}</h2>{content}")
     body.append("<h2>Stage runtimes</h2>" + table_tag(["stage", "seconds"],

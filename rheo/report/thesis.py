@@ -11,7 +11,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from rheo.report.fit import SYMBOLS
+from rheo.report.fit import SYMBOLS, interval_text
 from rheo.report.html import figure_tag, page, table_tag
 
 
@@ -23,7 +23,7 @@ def recovery_rows(thesis_recovered: dict[str, float], params: dict) -> list[dict
         thesis = thesis_recovered.get(name)
         rows.append({"parameter": name, "truth": truth, "initial": ours["initial"], "thesis": thesis,
                      "thesis_error": None if thesis is None or truth is None else abs(thesis / truth - 1.0),
-                     "rheo": ours["value"], "ci95": ours["ci95"], "determined": ours["determined"],
+                     "rheo": ours["value"], "interval": interval_text(ours), "determined": ours["determined"],
                      "held": ours.get("held_at_initial_guess", False),
                      "rheo_error": None if truth is None else abs(ours["value"] / truth - 1.0)})
     return rows
@@ -42,7 +42,7 @@ def recovery_table(rows: list[dict]) -> str:
                                              else " (not determined)")
         cells.append([SYMBOLS.get(r["parameter"], r["parameter"]), f"{r['truth']:.4g}", f"{r['initial']:.4g}",
                       "-" if r["thesis"] is None else f"{r['thesis']:.4g}", _percent(r["thesis_error"]),
-                      f"{r['rheo']:.4g}{status}", f"[{r['ci95'][0]:.3g}, {r['ci95'][1]:.3g}]",
+                      f"{r['rheo']:.4g}{status}", r["interval"],
                       _percent(r["rheo_error"])])
         better = r["rheo_error"] is not None and r["thesis_error"] is not None and r["rheo_error"] <= r["thesis_error"]
         classes.append("good" if better else "bad")

@@ -15,14 +15,6 @@ from rheo.experiments.virheometry import Setup
 from rheo.report.fit import flow_curve_figure
 from rheo.report.html import table_tag
 
-
-def interval_text(entry: dict) -> str:
-    """A fitted parameter's 95 % interval, "[low, high]", an open end (the region within the tolerance goes on past
-    the fit's reach) marked < or >."""
-    (low, high), (open_low, open_high) = entry["ci95"], entry.get("ci95_open", [False, False])
-    return f"[{'<' if open_low else ''}{low:.3g}, {'>' if open_high else ''}{high:.3g}]"
-
-
 # pairs of Setup.cuboid_corners() that differ along one axis
 CUBOID_EDGES = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)]
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from rheo.experiments.virheometry import Setup, SetupError, cuboid_overlap, opengl_camera, read_setup
-from rheo.report.virheometry import interval_text
+from rheo.report.fit import interval_text
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "virheometry"
 SETUPS = sorted(DATA.glob("ref_*"))

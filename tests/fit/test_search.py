@@ -1,5 +1,5 @@
-"""The silhouette fit's search: the quadratic model of the loss, its tolerance region, the survey and simplex, holding
-undetermined parameters, and replaying stored evaluations."""
+"""The silhouette fit's search: the survey and simplex, searches from several starts, the estimate and its intervals
+against an exact valley, holding undetermined parameters, and replaying stored evaluations."""
 
 import json
 import threading
@@ -9,21 +9,7 @@ from functools import partial
 import numpy as np
 import pytest
 
-from rheo.fit.search import EvaluationLog, estimate, multistart_search, simplex_search, start_searches, survey
-from rheo.fit.uncertainty import parabola_region, profile_intervals, profile_points
-
-
-def test_parabola_region_is_where_the_parabola_stays_below_the_threshold():
-    offsets = np.array([-0.4, -0.2, 0.0, 0.2, 0.4])
-    values = 1.0 + 0.5 * (offsets - 0.1) + 3.0 * (offsets - 0.1) ** 2  # vertex near 0.1 - 1/12
-    vertex = 0.1 - 0.5 / 6.0
-    low, high = parabola_region(offsets, values, 1.2)
-    bottom = 1.0 + 0.5 * (vertex - 0.1) + 3.0 * (vertex - 0.1) ** 2
-    half = np.sqrt((1.2 - bottom) / 3.0)
-    assert low == pytest.approx(vertex - half) and high == pytest.approx(vertex + half)
-    # not curving upwards: the sampled range below the threshold, open on the side where the loss keeps falling
-    assert parabola_region(offsets, 1.0 - offsets**2, 0.99) == (-np.inf, np.inf)
-    assert parabola_region(offsets, 1.0 - offsets, 1.1) == (0.0, np.inf)
+from rheo.fit.search import EvaluationLog, estimate, simplex_search, start_searches, survey_points
 
 
 def test_survey_and_simplex_find_the_minimum_of_a_curved_valley():
@@ -37,9 +23,11 @@ def test_survey_and_simplex_find_the_minimum_of_a_curved_valley():
         return loss(x)
 
     guess = np.log([100.0, 10.0])
-    points, values = survey(evaluate, guess, np.log(30.0), 64)
-    assert values[0] == min(values) < loss(guess) and np.all(np.diff(values) >= 0)
-    x, _ = simplex_search(evaluate, points[0], 0.2, 300, "full", tolerance=1e-4)
+    points = survey_points(guess, np.log(30.0), 64)
+    assert np.array_equal(points[0], guess) and np.all(np.abs(points - guess) <= np.log(30.0))
+    values = [loss(x) for x in points]
+    assert min(values) < loss(guess)
+    x, _ = simplex_search(evaluate, points[int(np.argmin(values))], 0.2, 300, "full", tolerance=1e-4)
     assert np.allclose(np.exp(x), [1000.0, 50.0], rtol=0.01)
 
 
@@ -55,9 +43,9 @@ def test_searches_from_several_starts_find_the_deeper_of_two_basins():
     x, _ = simplex_search(evaluate, starts[0], 0.5, 200, "full", tolerance=1e-4)
     assert np.allclose(x, shallow, atol=0.01)  # one start alone stays in its basin
     phases.clear()
-    x, value = multistart_search(evaluate, starts, 0.5, 0.2, 200)
+    x, value = start_searches(evaluate, starts, 0.5, 100)
     assert np.allclose(x, deep, atol=0.01) and value == pytest.approx(0.10, abs=1e-4)
-    assert phases.count("start 1") <= 50 and phases.count("start 2") <= 50 and phases[-1] == "full"
+    assert phases.count("start 1") <= 100 and phases.count("start 2") <= 100
 
 
 def test_searches_side_by_side_run_at_once_and_find_what_they_find_one_after_another(tmp_path):
@@ -90,26 +78,57 @@ def test_searches_side_by_side_run_at_once_and_find_what_they_find_one_after_ano
     assert stored[0] == stored[1]  # the same evaluations, every one stored
 
 
-def test_a_parameter_the_loss_ignores_is_held_at_its_guess_and_flagged():
+FLOOR = 0.1  # the loss's floor: the fit model's own error
+
+
+def valley_estimate(tmp_path, ignored: bool):
+    """The estimate on a loss sqrt(floor^2 + d.A.d) of (a, b) (and c, which it ignores), with a log of every
+    evaluation; guess and start away from the minimum."""
     target = np.log([1000.0, 50.0, 2.0])
+    curvature = np.array([[3.0, 2.0, 0.0], [2.0, 2.0, 0.0], [0.0, 0.0, 0.0 if ignored else 1.5]])
 
-    def evaluate(x, phase):
-        d = (x - target)[:2]  # the third parameter changes nothing
-        return 0.1 + d @ np.array([[3.0, 1.0], [1.0, 2.0]]) @ d
+    def losses(points):
+        return [float(np.sqrt(FLOOR**2 + (x - target) @ curvature @ (x - target))) for x in points]
 
+    log = EvaluationLog(tmp_path / "evaluations.json", "key", one_objective=True)
     guess = np.log([300.0, 20.0, 7.0])
     box = (guess - np.log(30.0), guess + np.log(30.0))
-    result = estimate(evaluate, [guess], guess, ["a", "b", "c"], evaluations=400, start_step=1.0, step=0.2,
-                      profile_step=0.2, tolerance=0.1, box=box)
+    result = estimate(lambda points, phase: log.evaluate_many(losses, points, phase), [guess], ["a", "b", "c"],
+                      seen=log.seen, evaluations=200, start_step=0.5, half_width=0.25, rounds=3, tolerance=0.1,
+                      box=box, guess=guess)
+    return result, target, curvature, log
+
+
+def test_the_estimate_is_the_valleys_floor_and_its_intervals_the_shadow_of_the_tolerance_region(tmp_path):
+    result, target, curvature, _ = valley_estimate(tmp_path, ignored=False)
+    assert result.held == [] and np.allclose(result.log_values, target, atol=1e-6)
+    assert result.loss == pytest.approx(FLOOR)
+    # loss <= 1.1 floor where d.A.d <= 0.21 floor^2: an ellipsoid whose shadow on axis i is
+    # +- sqrt(0.21 floor^2 A^-1_ii), wider than the profile through the optimum (+- sqrt(0.21 floor^2 / A_ii))
+    # where a and b trade against each other
+    half = np.sqrt(0.21 * FLOOR**2 * np.diag(np.linalg.inv(curvature)))
+    for i, name in enumerate("abc"):
+        interval = result.intervals[name]
+        assert interval.determined and interval.open == (False, False)
+        assert np.log([interval.low, interval.high]) == pytest.approx([target[i] - half[i], target[i] + half[i]],
+                                                                      abs=1e-6)
+    assert half[0] > 1.7 * np.sqrt(0.21 * FLOOR**2 / curvature[0, 0])
+
+
+def test_a_parameter_the_loss_ignores_is_held_at_its_guess_and_flagged(tmp_path):
+    result, target, curvature, log = valley_estimate(tmp_path, ignored=True)
     assert result.held == ["c"]
-    assert result.intervals["c"].value == pytest.approx(7.0) and not result.intervals["c"].determined
+    c = result.intervals["c"]
+    assert c.value == pytest.approx(7.0) and not c.determined and c.open == (True, True)
+    assert np.allclose(result.log_values[:2], target[:2], atol=1e-6) and result.log_values[2] == np.log(7.0)
+    half = np.sqrt(0.21 * FLOOR**2 * np.diag(np.linalg.inv(curvature[:2, :2])))
     for i, name in enumerate("ab"):
         interval = result.intervals[name]
         assert interval.determined and interval.low < np.exp(target[i]) < interval.high
-        assert interval.value == pytest.approx(np.exp(target[i]), rel=0.02)
-    # the profile along a (b at its optimum) stays within 10 % of the minimum 0.1 for 3 d^2 <= 0.01
-    half = np.log(result.intervals["a"].high / result.intervals["a"].low) / 2
-    assert half == pytest.approx(np.sqrt(0.01 / 3.0), rel=0.05)
+        assert np.log(interval.high / interval.low) / 2 == pytest.approx(half[i], rel=1e-6)
+    # the surface of a and b was fitted again with c at its guess
+    held = [r for r in log.records if r["phase"] == "surface, held"]
+    assert held and all(r["x"][2] == np.log(7.0) for r in held)
 
 
 def test_an_interrupted_search_replays_its_stored_evaluations(tmp_path):
@@ -190,16 +209,3 @@ def test_a_point_stored_by_one_phase_serves_another_when_they_share_the_objectiv
     resumed = EvaluationLog(tmp_path / "evaluations.json", "key", one_objective=one_objective)
     assert resumed.evaluate_many(objective, [np.array([3.0, 0.0])], "profile") == [9.0]
     assert batches == batches_expected + ([] if one_objective else [1])
-
-
-def test_the_profile_evaluates_exactly_its_listed_points():
-    centre = np.log([3.0, 2.0, 0.5])
-    listed = {tuple(p) for p in profile_points(centre, [0, 2], 0.2)}
-    seen = set()
-
-    def evaluate(x, phase):
-        seen.add(tuple(x))
-        return 1.0 + np.sum((x - centre) ** 2)
-
-    profile_intervals(evaluate, centre, [0, 2], ["a", "b", "c"], 0.2, 0.1, (centre - 5, centre + 5))
-    assert seen == listed and len(listed) == 9

@@ -15,6 +15,7 @@ rule fit_warmup:
         "logs/{experiment}/fit_warmup.log",
     benchmark:
         "benchmarks/{experiment}/fit_warmup.tsv"
+    threads: 2
     params:
         experiment=lambda w: experiment(w.experiment),
         phase="warmup",
@@ -38,6 +39,7 @@ rule fit:
         "logs/{experiment}/fit.log",
     benchmark:
         "benchmarks/{experiment}/fit.tsv"
+    threads: 2
     params:
         experiment=lambda w: experiment(w.experiment),
         phase="full",
