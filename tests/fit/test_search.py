@@ -131,6 +131,25 @@ def test_a_parameter_the_loss_ignores_is_held_at_its_guess_and_flagged(tmp_path)
     assert held and all(r["x"][2] == np.log(7.0) for r in held)
 
 
+def test_a_guess_beyond_an_open_end_is_not_held_where_the_loss_there_is_worse(tmp_path):
+    target = np.log([1000.0, 50.0, 2.0])
+
+    def losses(points):  # flat along c within 1.2 log units of its target (past the surface's reach), steep beyond
+        return [float(np.sqrt(FLOOR**2 + 3.0 * np.sum((x[:2] - target[:2]) ** 2)
+                              + 10.0 * max(abs(x[2] - target[2]) - 1.2, 0.0) ** 2)) for x in points]
+
+    log = EvaluationLog(tmp_path / "evaluations.json", "key", one_objective=True)
+    guess = target + np.array([0.5, -0.5, 2.0])
+    box = (guess - np.log(30.0), guess + np.log(30.0))
+    result = estimate(lambda points, phase: log.evaluate_many(losses, points, phase), [target + 0.05], ["a", "b", "c"],
+                      seen=log.seen, evaluations=100, start_step=0.1, half_width=0.25, rounds=3, tolerance=0.1,
+                      box=box, guess=guess)
+    assert result.intervals["c"].open == (True, True)  # so the guess might lie in the region within the tolerance
+    assert any(r["phase"] == "surface, held" for r in log.records)  # it was tried there
+    assert result.held == [] and result.loss == pytest.approx(FLOOR, rel=1e-3)  # and given up: it loses more
+    assert abs(result.log_values[2] - target[2]) < 1.2
+
+
 def test_an_interrupted_search_replays_its_stored_evaluations(tmp_path):
     calls = []
 
