@@ -110,7 +110,8 @@ def flow_figure(law: tuple[float, float, float], samples: np.ndarray, band: tupl
 def summary_figure(laws: dict[str, tuple[tuple[float, float, float], tuple[float, float] | None]]):
     """Every material's recovered flow curve: solid over the shear rates its flow reached, dotted elsewhere."""
     rate = np.logspace(-2, 3, 200)
-    fig, ax = plt.subplots(figsize=(7.5, 5))
+    fig, ax = plt.subplots(figsize=(10, 5), layout="constrained")
+    reached = []
     for (name, (law, band)), colour in zip(laws.items(), plt.cm.tab20(np.linspace(0, 1, max(len(laws), 1))),
                                            strict=False):
         stress = law[0] + law[1] * rate ** law[2]
@@ -119,11 +120,14 @@ def summary_figure(laws: dict[str, tuple[tuple[float, float, float], tuple[float
             continue
         inside = (rate >= band[0]) & (rate <= band[1])
         ax.plot(rate[inside], stress[inside], "-", color=colour, lw=2, label=name)
+        reached.extend(stress[inside])
     ax.set_xscale("log")
     ax.set_yscale("log")
+    if reached:  # the stresses the flows reached, not a shear-thickening law's extrapolation
+        ax.set_ylim(min(reached) / 2, max(reached) * 3)
     ax.set_xlabel("shear rate (1/s)")
     ax.set_ylabel("shear stress (Pa)")
     ax.set_title("recovered flow curves (solid: shear rates the flow reached)")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7, ncol=2)
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return fig
