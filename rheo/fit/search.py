@@ -36,6 +36,9 @@ from rheo.io import write_atomic
 from rheo.render.silhouette import boundary_distance, distance_to, silhouette
 
 logger = logging.getLogger(__name__)
+# the surface stops moving where it promises a loss lower by less than this fraction of the tolerance: a valley flat
+# at that scale cannot place the estimate along it, and walking on would follow the loss's roughness
+FLAT = 0.25
 
 
 class SilhouetteTarget:
@@ -283,8 +286,11 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
 
     inner = (box[0][free], box[1][free])
     refinement = refine(lambda points: evaluate_many([embed(y) for y in points], phase), centre[free], half_width,
-                        inner, seen_here, rounds)
-    if not refinement.converged:
+                        inner, seen_here, rounds, flat=FLAT * tolerance)
+    if refinement.flat:
+        logger.info("the surface promises less than %.2g %% from a further move: the valley is flat there",
+                    100 * FLAT * tolerance)
+    elif not refinement.converged:
         logger.warning("the surface's lowest point still moved after %d rounds: the estimate is the lowest point "
                        "within the last design", refinement.rounds)
     y, loss = refinement.x, evaluate_estimate(embed(refinement.x))
@@ -307,6 +313,7 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
     intervals = tolerated(points, losses, tolerance).widen(intervals, free_names)
     evidence = describe_surface(refinement.surface, free_names) | {
         "half_width_log": refinement.half_width, "rounds": refinement.rounds, "converged": refinement.converged,
+        "flat": refinement.flat,
         "reach_log": refinement.reach, "open_ends": {n: list(ends) for n, ends in zip(free_names, open_ends.tolist(),
                                                                                       strict=True)}}
     return embed(y), loss, intervals, evidence

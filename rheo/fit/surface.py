@@ -133,13 +133,15 @@ def composite_design(centre: np.ndarray, half_width: float) -> np.ndarray:
 @dataclass
 class Refinement:
     """The estimate (log-parameters), the surface of the squared loss fitted around it, the design's half width, the
-    rounds it took and whether the last surface's lowest point lay within a half width of its design's centre."""
+    rounds it took, whether the last surface's lowest point lay within a half width of its design's centre
+    (``converged``) and whether the last surface promised too little from a further move to make it (``flat``)."""
 
     x: np.ndarray
     surface: Quadratic
     half_width: float
     rounds: int
     converged: bool
+    flat: bool = False
 
     @property
     def reach(self) -> float:
@@ -149,13 +151,15 @@ class Refinement:
 
 def refine(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.ndarray, half_width: float,
            box: tuple[np.ndarray, np.ndarray], evaluated: Callable[[], tuple[np.ndarray, np.ndarray]],
-           rounds: int = 3) -> Refinement:
+           rounds: int = 3, flat: float = 0.0) -> Refinement:
     """Rounds of a composite design around ``centre`` (clipped to ``box``; a point evaluated near a design point
     stands in for it), each followed by a quadratic fitted to the squared losses of every evaluation within
     ``REACH`` design radii (``evaluated()``: all points and losses so far, the design's among them) and a move to
     its lowest point within the design's radius; until the move stays within a half width (the minimum lies inside
-    the design) or ``rounds`` are done. The estimate is the last surface's lowest point within the design's radius
-    of the last centre."""
+    the design), the surface promises to lower the loss by less than the fraction ``flat`` at its lowest point
+    (a valley whose floor is flat at that scale: walking along it would follow the roughness of the loss), or
+    ``rounds`` are done. The estimate is the last surface's lowest point within the design's radius of the last
+    centre."""
     radius = np.sqrt(len(centre)) * half_width
     for done in range(1, rounds + 1):
         design = np.unique(np.clip(composite_design(centre, half_width), *box), axis=0)
@@ -169,10 +173,11 @@ def refine(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.
         surface = fit_quadratic(points[near], np.asarray(losses)[near] ** 2, centre, relative=True)
         lowest = np.clip(surface.lowest_within(radius), *box)
         moved = float(np.linalg.norm(lowest - centre))
-        logger.info("surface round %d: %d evaluations, %s, lowest point moved %.3g log units", done, int(near.sum()),
-                    "convex" if surface.convex else "not convex", moved)
-        if moved <= half_width or done == rounds:
-            return Refinement(lowest, surface, half_width, done, moved <= half_width)
+        promise = 1.0 - np.sqrt(max(float(surface(lowest)[0]), 0.0) / max(float(surface(centre)[0]), 1e-300))
+        logger.info("surface round %d: %d evaluations, %s, lowest point moved %.3g log units, promising a loss %.2g %% "
+                    "lower", done, int(near.sum()), "convex" if surface.convex else "not convex", moved, 100 * promise)
+        if moved <= half_width or promise < flat or done == rounds:
+            return Refinement(lowest, surface, half_width, done, moved <= half_width, promise < flat)
         centre = lowest
     raise AssertionError("unreachable")
 

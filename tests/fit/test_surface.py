@@ -114,6 +114,26 @@ def test_refinement_finds_the_floor_of_a_rough_flat_valley_and_its_tolerance_reg
     assert not open_ends.any() and np.allclose(extents[:, 1] - extents[:, 0], 2.0 * half, rtol=0.1)
 
 
+@pytest.mark.parametrize("flat, rounds", [(0.0, 3), (0.02, 1)])
+def test_refinement_stops_where_the_valley_floor_is_flat_at_the_tolerances_scale(flat, rounds):
+    """A valley whose floor falls by 0.2 % per log unit: each surface's lowest point lies on the edge of its design,
+    so the rounds would walk along the floor as long as they are allowed; a surface that promises less than the
+    fraction ``flat`` ends them at once (as flat, not converged)."""
+    floor, evaluated_points, evaluated_losses = 0.03, [], []
+
+    def evaluate_many(points):
+        points = np.array(points)
+        losses = floor * np.sqrt(1.0 - 0.004 * points[:, 0] + 4.0 * (points[:, 1] ** 2 + points[:, 2] ** 2))
+        evaluated_points.extend(points)
+        evaluated_losses.extend(losses)
+        return list(losses)
+
+    found = refine(evaluate_many, np.zeros(3), 0.25, (np.full(3, -5.0), np.full(3, 5.0)),
+                   lambda: (np.array(evaluated_points), np.array(evaluated_losses)), flat=flat)
+    assert found.rounds == rounds and found.flat == (flat > 0) and not found.converged
+    assert found.x[0] == pytest.approx(rounds * np.sqrt(3) * 0.25, abs=0.01)  # a full radius along the floor each
+
+
 def test_an_interrupted_refinement_replays_its_stored_evaluations_and_ends_where_an_uninterrupted_one_does(tmp_path):
     """The surface of a resumed fit sees only the evaluations replayed so far, not those the log holds from later
     rounds: it takes the same steps, and evaluates nothing the first run had."""
