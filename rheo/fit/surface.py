@@ -173,7 +173,7 @@ def refine(evaluate_many: Callable[[list[np.ndarray]], list[float]], centre: np.
         surface = fit_quadratic(points[near], np.asarray(losses)[near] ** 2, centre, relative=True)
         lowest = np.clip(surface.lowest_within(radius), *box)
         moved = float(np.linalg.norm(lowest - centre))
-        promise = 1.0 - np.sqrt(max(float(surface(lowest)[0]), 0.0) / max(float(surface(centre)[0]), 1e-300))
+        promise = 1.0 - float(np.sqrt(max(float(surface(lowest)[0]), 0.0) / max(float(surface(centre)[0]), 1e-300)))
         logger.info("surface round %d: %d evaluations, %s, lowest point moved %.3g log units, promising a loss %.2g %% "
                     "lower", done, int(near.sum()), "convex" if surface.convex else "not convex", moved, 100 * promise)
         if moved <= half_width or promise < flat or done == rounds:

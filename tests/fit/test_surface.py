@@ -131,6 +131,7 @@ def test_refinement_stops_where_the_valley_floor_is_flat_at_the_tolerances_scale
     found = refine(evaluate_many, np.zeros(3), 0.25, (np.full(3, -5.0), np.full(3, 5.0)),
                    lambda: (np.array(evaluated_points), np.array(evaluated_losses)), flat=flat)
     assert found.rounds == rounds and found.flat == (flat > 0) and not found.converged
+    assert type(found.flat) is bool  # written to params.json
     assert found.x[0] == pytest.approx(rounds * np.sqrt(3) * 0.25, abs=0.01)  # a full radius along the floor each
 
 
