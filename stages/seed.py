@@ -14,6 +14,7 @@ from rheo.fit.seed import (
     proxy_particles,
     seed_from_field,
     silhouette_iou,
+    trim_top,
     visual_hull,
 )
 from rheo.io import read_json, write_atomic, write_json_atomic
@@ -40,7 +41,14 @@ if method == "radiance":
                                                  surface_weight=settings["surface_weight"])
     log.info("radiance field: loss %.4g -> %.4g over %d steps", losses[0], losses[-1], len(losses))
     seed, threshold, scores = seed_from_field(obs, density, colour, grid)
+    untrimmed = len(seed.positions)
+    seed, trimmed_layers = trim_top(obs, seed)
+    if trimmed_layers:
+        log.info("trimmed the top %d layers (%d particles): no view's outline needs them", trimmed_layers,
+                 untrimmed - len(seed.positions))
+        scores = silhouette_iou(obs, seed)
     summary.update(visual_hull_volume=float(hull.sum() * spacing**3), opacity_threshold=threshold,
+                   trimmed_layers=trimmed_layers, trimmed_particles=untrimmed - len(seed.positions),
                    field_loss=losses)
 else:
     proxy = np.load(smk.input.proxy)

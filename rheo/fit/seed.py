@@ -23,6 +23,10 @@ from rheo.render.silhouette import iou, silhouette
 logger = logging.getLogger(__name__)
 
 OPAQUE = 4.0  # optical depth per particle spacing (with rheo.render.field.COUNT_FLOOR: surfaces where volumes end)
+# top layers are trimmed while the silhouettes' outlines move by less than this on average (px). A layer that shows
+# moves the upper outlines: a flat top's by about a pixel, a dome's below its apex by a tenth (at 3 px per spacing);
+# the cap the views cannot carve over a flat top, by a hundredth
+OUTLINE_SHIFT = 0.05
 
 
 @dataclass
@@ -190,6 +194,35 @@ def seed_from_field(obs: Observations, density: torch.Tensor, colour: torch.Tens
         logger.warning("the lowest opacity threshold (%g) matches the masks best: the field may be too faint",
                        best[1])
     return best
+
+
+def outline_length(mask: np.ndarray) -> int:
+    """The number of pixels on the outline of a (H, W) mask (its pixels with a 4-neighbour outside)."""
+    return int((mask & ~ndimage.binary_erosion(mask, border_value=0)).sum())
+
+
+def trim_top(obs: Observations, seed: Seed, frame: int = 0, shift: float = OUTLINE_SHIFT) -> tuple[Seed, int]:
+    """The seed without its highest layers as long as the silhouettes' outlines move by less than ``shift`` px on
+    average; returns it and the number of layers removed.
+
+    Views from above the horizon cannot carve the visual hull over a flat top (every one of them sees a point above
+    it inside the top face), and a field coloured like the top face fills that cone at no cost: a cap of material
+    the recording never showed, which the fit would then have to explain away. The outlines tell the cap, which
+    none of them needs, from a true layer, which moves the upper outline of every view by its projected height."""
+    masks = [view.masks[frame].reshape(view.camera.height, view.camera.width) for view in obs.views]
+    allowed = shift * sum(outline_length(mask) for mask in masks)
+
+    def mismatch(positions: np.ndarray) -> int:
+        return sum(int((silhouette(view.camera, positions, seed.spacing) != mask).sum())
+                   for view, mask in zip(obs.views, masks, strict=True))
+
+    layer = np.round((seed.positions[:, 1] - seed.positions[:, 1].min()) / seed.spacing).astype(int)
+    untrimmed = mismatch(seed.positions)
+    top = layer.max()
+    while top > 0 and mismatch(seed.positions[layer < top]) - untrimmed <= allowed:
+        top -= 1
+    keep = layer <= top
+    return Seed(seed.positions[keep], seed.density[keep], seed.colour[keep], seed.spacing), int(layer.max() - top)
 
 
 def proxy_particles(occupancy: np.ndarray, origin: np.ndarray, proxy_spacing: float, spacing: float) -> np.ndarray:
