@@ -7,6 +7,7 @@ voxels the field makes opaque and take its density and colour. One view: the pro
 
 from __future__ import annotations
 
+import itertools
 import logging
 from dataclasses import dataclass
 
@@ -18,7 +19,7 @@ from tqdm.auto import tqdm
 
 from rheo.fit.observations import Observations, sample_rays
 from rheo.render.field import WHITE, VoxelGrid, march
-from rheo.render.silhouette import iou, silhouette
+from rheo.render.silhouette import DISC, SUPERSAMPLE, disc_kernel, iou, silhouette
 
 logger = logging.getLogger(__name__)
 
@@ -146,16 +147,20 @@ def opaque_density(spacing: float) -> float:
     return OPAQUE / spacing
 
 
-def field_particles(density: torch.Tensor, colour: torch.Tensor, grid: VoxelGrid, threshold: float = 0.5,
-                    min_piece: float = 0.05) -> Seed:
-    """One particle at every node (above the floor) whose voxel the field makes more opaque than ``threshold``, or
-    that such voxels enclose: images constrain the surface, not the inside, so cavities are filled (the floor closes
-    the material from below), in 3-D and in every horizontal slice. Pieces smaller than ``min_piece`` of the largest
-    are dropped."""
+def field_occupancy(density: torch.Tensor, grid: VoxelGrid, threshold: float = 0.5,
+                    min_piece: float = 0.05) -> np.ndarray:
+    """The nodes (above the floor) whose voxel the field makes more opaque than ``threshold``, or that such voxels
+    enclose (``solid``)."""
     alpha = (1.0 - torch.exp(-density * grid.spacing)).numpy()
-    centres = grid.centres()
-    above = centres[..., 1] > 0
-    closed = (alpha > threshold) & above
+    return solid(alpha > threshold, grid, min_piece)
+
+
+def solid(occupied: np.ndarray, grid: VoxelGrid, min_piece: float = 0.05) -> np.ndarray:
+    """``occupied`` nodes of ``grid`` with what they enclose: images constrain the surface, not the inside, so
+    cavities are filled (the floor closes the material from below), in 3-D and in every horizontal slice. Pieces
+    smaller than ``min_piece`` of the largest are dropped, and nodes below the floor."""
+    above = grid.centres()[..., 1] > 0
+    closed = occupied & above
     closed[:, :np.argmax(above, axis=1).min()] = True
     keep = ndimage.binary_fill_holes(closed)
     # a cavity open to the outside somewhere escapes the 3-D filling; horizontal slices of a heap rarely have holes
@@ -165,8 +170,94 @@ def field_particles(density: torch.Tensor, colour: torch.Tensor, grid: VoxelGrid
     if count > 1:  # drop specks of opacity floating apart from the material
         sizes = ndimage.sum(keep, labels, index=np.arange(1, count + 1))
         keep = np.isin(labels, 1 + np.flatnonzero(sizes >= min_piece * sizes.max()))
-    return Seed(centres[keep], np.full(int(keep.sum()), opaque_density(grid.spacing)),
-                colour.numpy().transpose(1, 2, 3, 0)[keep], grid.spacing)
+    return keep
+
+
+def grid_seed(occupied: np.ndarray, colour: torch.Tensor, grid: VoxelGrid) -> Seed:
+    """One particle at every ``occupied`` node, with the field's colour there."""
+    return Seed(grid.centres()[occupied], np.full(int(occupied.sum()), opaque_density(grid.spacing)),
+                colour.numpy().transpose(1, 2, 3, 0)[occupied], grid.spacing)
+
+
+class _ViewCoverage:
+    """One view's silhouette of particles at a grid's nodes as ``rheo.render.silhouette.silhouette`` draws it (discs
+    on a raster ``SUPERSAMPLE`` times finer, a pixel set where at least half its sub-pixels are covered), kept up to
+    date as single nodes are added or removed: how many discs cover each sub-pixel and how many covered sub-pixels
+    each pixel has."""
+
+    def __init__(self, camera, mask: np.ndarray, centres: np.ndarray, occupied: np.ndarray, spacing: float) -> None:
+        s = SUPERSAMPLE
+        width = camera.width * s
+        uv, depth = camera.project(centres)
+        sub = np.floor((uv + 0.5) * s).astype(int)
+        seen = (depth > 0) & (sub[:, 0] >= 0) & (sub[:, 0] < width) & (sub[:, 1] >= 0) & (
+            sub[:, 1] < camera.height * s)
+        radius = DISC * spacing * camera.K[0, 0] * s / float(np.median(depth[occupied & seen]))
+        kernel = disc_kernel(radius)
+        dy, dx = np.nonzero(kernel)
+        rows = sub[:, 1, None] + dy - kernel.shape[0] // 2
+        columns = sub[:, 0, None] + dx - kernel.shape[1] // 2
+        inside = seen[:, None] & (rows >= 0) & (rows < camera.height * s) & (columns >= 0) & (columns < width)
+        # per node, the sub-pixels its disc covers (flat index, -1 where off the image) and their pixels
+        self.footprint = np.where(inside, rows * width + columns, -1)
+        self.pixel = np.where(inside, (rows // s) * camera.width + columns // s, -1)
+        self.mask = mask
+        self.discs = np.zeros(camera.height * s * width, np.int32)
+        np.add.at(self.discs, self.footprint[occupied][inside[occupied]], 1)
+        self.covered = (self.discs > 0).reshape(camera.height, s, camera.width, s).sum(axis=(1, 3)).ravel()
+
+    def silhouette(self) -> np.ndarray:
+        return 2 * self.covered >= SUPERSAMPLE**2
+
+    def change(self, node: int, add: bool) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
+        """What adding (removing) ``node`` does: the change in the number of pixels where the silhouette and the mask
+        disagree, and the sub-pixels, pixels and per-pixel counts that change."""
+        keep = self.footprint[node] >= 0
+        footprint, pixel = self.footprint[node][keep], self.pixel[node][keep]
+        flips = self.discs[footprint] == (0 if add else 1)  # sub-pixels that become covered (uncovered)
+        pixels, counts = np.unique(pixel[flips], return_counts=True)
+        before = 2 * self.covered[pixels] >= SUPERSAMPLE**2
+        after = 2 * (self.covered[pixels] + (counts if add else -counts)) >= SUPERSAMPLE**2
+        wrong = int((after != self.mask[pixels]).sum() - (before != self.mask[pixels]).sum())
+        return wrong, footprint, pixels, counts
+
+    def apply(self, add: bool, footprint: np.ndarray, pixels: np.ndarray, counts: np.ndarray) -> None:
+        self.discs[footprint] += 1 if add else -1
+        self.covered[pixels] += counts if add else -counts
+
+
+def carve(obs: Observations, grid: VoxelGrid, occupied: np.ndarray, frame: int = 0, passes: int = 20) -> np.ndarray:
+    """``occupied`` nodes of ``grid`` refined to the masks of ``frame``: nodes on the boundary are added or removed,
+    one at a time, wherever that lowers the number of pixels at which the silhouettes (as the fit draws them) and the
+    masks disagree, summed over the views; until a pass over the boundary changes nothing, or ``passes`` are done.
+    A node whose change no view sees stays as it is, so the inside stays filled. The radiance field's opacity
+    threshold leaves its surface a voxel too far out here and a voxel too far in there; the fit, which compares
+    silhouettes of particles, is biased by every such voxel."""
+    occupied = occupied.copy()
+    flat = occupied.reshape(-1)  # a view of it
+    centres = grid.centres().reshape(-1, 3)
+    above = centres[:, 1] > 0
+    views = [_ViewCoverage(v.camera, v.masks[frame].astype(bool), centres, flat, grid.spacing) for v in obs.views]
+    wrong = sum(int((v.silhouette() != v.mask).sum()) for v in views)
+    for done in range(1, passes + 1):
+        grown = ndimage.binary_dilation(occupied) & ~occupied
+        boundary = occupied & ~ndimage.binary_erosion(occupied, border_value=0)
+        changed = 0
+        for node in np.flatnonzero((grown | boundary).reshape(-1) & above):
+            add = not flat[node]
+            changes = [view.change(node, add) for view in views]
+            seen = any(len(c[2]) for c in changes)
+            gain = sum(c[0] for c in changes)
+            if seen and gain < 0:
+                for view, (_, *change) in zip(views, changes, strict=True):
+                    view.apply(add, *change)
+                flat[node] = add
+                wrong += gain
+                changed += 1
+        logger.info("carving pass %d: %d nodes changed, %d pixels disagree with the masks", done, changed, wrong)
+        if not changed:
+            break
+    return occupied
 
 
 def silhouette_iou(obs: Observations, seed: Seed, frame: int = 0) -> dict[str, float]:
@@ -177,23 +268,47 @@ def silhouette_iou(obs: Observations, seed: Seed, frame: int = 0) -> dict[str, f
     return scores
 
 
+def mismatched_pixels(obs: Observations, positions: np.ndarray, spacing: float, frame: int = 0) -> int:
+    """The number of pixels, over the views, where the particles' silhouettes and the masks of ``frame`` differ."""
+    return sum(int((silhouette(view.camera, positions, spacing).ravel() != view.masks[frame]).sum())
+               for view in obs.views)
+
+
 def seed_from_field(obs: Observations, density: torch.Tensor, colour: torch.Tensor, grid: VoxelGrid,
-                    thresholds=(0.8, 0.6, 0.4, 0.3, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005)
+                    thresholds=(0.8, 0.6, 0.4, 0.3, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005), offsets: int = 3
                     ) -> tuple[Seed, float, dict[str, float]]:
     """The particles of the opacity threshold whose silhouettes best match the first frame's masks (mean IoU over
-    the views); returns them, the threshold and the IoU per view."""
+    the views), carved to the masks (``carve``) on the horizontal placement of the lattice (``offsets`` per axis and
+    spacing) whose carved silhouettes differ from the masks on the fewest pixels; returns them, the threshold and the
+    IoU per view."""
     best = None
     for threshold in thresholds:
-        seed = field_particles(density, colour, grid, threshold)
-        scores = silhouette_iou(obs, seed)
-        logger.info("opacity threshold %.2f: %d particles, mean silhouette IoU %.4f", threshold, len(seed.positions),
+        occupied = field_occupancy(density, grid, threshold)
+        scores = silhouette_iou(obs, grid_seed(occupied, colour, grid))
+        logger.info("opacity threshold %.2f: %d particles, mean silhouette IoU %.4f", threshold, occupied.sum(),
                     np.mean(list(scores.values())))
         if best is None or np.mean(list(scores.values())) > np.mean(list(best[2].values())):
-            best = (seed, threshold, scores)
-    if best[1] == min(thresholds):
+            best = (occupied, threshold, scores)
+    threshold = best[1]
+    if threshold == min(thresholds):
         logger.warning("the lowest opacity threshold (%g) matches the masks best: the field may be too faint",
-                       best[1])
-    return best
+                       threshold)
+    placements = []
+    for dx, dz in itertools.product(np.arange(offsets) / offsets, repeat=2):
+        shifted = VoxelGrid(tuple(np.asarray(grid.origin) + grid.spacing * np.array([dx, 0.0, dz])), grid.spacing,
+                            grid.shape)
+        occupied = solid(carve(obs, shifted, field_occupancy(_resample(density[None], grid, shifted)[0], shifted,
+                                                                 threshold)), shifted)
+        wrong = mismatched_pixels(obs, shifted.centres()[occupied], grid.spacing)
+        logger.info("lattice shifted by (%.2f, %.2f) spacings: carved to %d particles, %d pixels off the masks", dx, dz,
+                    occupied.sum(), wrong)
+        placements.append((wrong, dx, dz, shifted, occupied))
+    _, dx, dz, shifted, occupied = min(placements, key=lambda placement: placement[0])
+    seed = grid_seed(occupied, _resample(colour, grid, shifted), shifted)
+    scores = silhouette_iou(obs, seed)
+    logger.info("seed on the lattice shifted by (%.2f, %.2f): %d particles, mean silhouette IoU %.4f", dx, dz,
+                len(seed.positions), np.mean(list(scores.values())))
+    return seed, threshold, scores
 
 
 def outline_length(mask: np.ndarray) -> int:
@@ -209,17 +324,12 @@ def trim_top(obs: Observations, seed: Seed, frame: int = 0, shift: float = OUTLI
     it inside the top face), and a field coloured like the top face fills that cone at no cost: a cap of material
     the recording never showed, which the fit would then have to explain away. The outlines tell the cap, which
     none of them needs, from a true layer, which moves the upper outline of every view by its projected height."""
-    masks = [view.masks[frame].reshape(view.camera.height, view.camera.width) for view in obs.views]
-    allowed = shift * sum(outline_length(mask) for mask in masks)
-
-    def mismatch(positions: np.ndarray) -> int:
-        return sum(int((silhouette(view.camera, positions, seed.spacing) != mask).sum())
-                   for view, mask in zip(obs.views, masks, strict=True))
-
+    allowed = shift * sum(outline_length(view.masks[frame].reshape(view.camera.height, view.camera.width))
+                          for view in obs.views)
     layer = np.round((seed.positions[:, 1] - seed.positions[:, 1].min()) / seed.spacing).astype(int)
-    untrimmed = mismatch(seed.positions)
+    untrimmed = mismatched_pixels(obs, seed.positions, seed.spacing, frame)
     top = layer.max()
-    while top > 0 and mismatch(seed.positions[layer < top]) - untrimmed <= allowed:
+    while top > 0 and mismatched_pixels(obs, seed.positions[layer < top], seed.spacing, frame) - untrimmed <= allowed:
         top -= 1
     keep = layer <= top
     return Seed(seed.positions[keep], seed.density[keep], seed.colour[keep], seed.spacing), int(layer.max() - top)

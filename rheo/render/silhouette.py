@@ -13,15 +13,17 @@ from rheo.vision.cameras import Camera
 # disc radius in particle spacings: the circle inscribed in a particle's cell. The proxy's particles then draw the
 # virtual cup's matted masks to 0.1 % in area (0.6, the lab's splat radius: +1.4 %; 0.4: -1.9 %)
 DISC = 0.5
+SUPERSAMPLE = 2  # sub-pixels per pixel along each axis
 
 
-def _disc_kernel(radius: float) -> np.ndarray:
+def disc_kernel(radius: float) -> np.ndarray:
+    """The pixels (2r + 1, 2r + 1) of a disc of ``radius`` about the centre one."""
     r = max(int(np.ceil(radius - 0.5)), 0)
     y, x = np.mgrid[-r:r + 1, -r:r + 1]
     return (x * x + y * y <= radius * radius + 0.25).astype(np.uint8)
 
 
-def coverage(camera: Camera, points: np.ndarray, spacing: float, supersample: int = 2,
+def coverage(camera: Camera, points: np.ndarray, spacing: float, supersample: int = SUPERSAMPLE,
              projection: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """The fraction (H, W) of every pixel covered by the particles' discs (radius from the median depth);
     ``projection``: the points' ``camera.project``, where the caller has it."""
@@ -34,7 +36,7 @@ def coverage(camera: Camera, points: np.ndarray, spacing: float, supersample: in
     hits[sub[keep, 1], sub[keep, 0]] = 1
     if keep.any():
         radius = DISC * spacing * camera.K[0, 0] * supersample / float(np.median(depth[keep]))
-        hits = cv2.dilate(hits, _disc_kernel(radius))
+        hits = cv2.dilate(hits, disc_kernel(radius))
     return cv2.resize(hits.astype(np.float32), (camera.width, camera.height), interpolation=cv2.INTER_AREA)
 
 
