@@ -69,7 +69,9 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
     magnitude and the law is refitted at each by a short Nelder-Mead search (``rung_evaluations``, initial simplex
     ``law_step``). An effect the base fit compensated with a very different law (a slow gate with a strong
     material, say) needs that law moved far: each rung starts from the law extrapolated from the two before
-    (continuation along the valley). A branch stops climbing once a rung's loss exceeds the best so far by
+    (continuation along the valley), unless the previous rung's law or the base fit's does better there (where
+    the valley turns: a sliding floor first lowers the yield stress that held the material back, then, once the
+    material slides, needs it back). A branch stops climbing once a rung's loss exceeds the best so far by
     ``STOP_RISE``."""
     phase = f"refit {candidate.name}"
     null = candidate.nearest_null
@@ -79,10 +81,10 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
         path = [(null, base_x)]
         for value in branch:
             rung = candidate.coordinate(value)
-            law = path[-1][1]
+            starts = [path[-1][1]]
             if len(path) > 1:
                 (c0, x0), (c1, x1) = path[-2:]
-                law = x1 + (x1 - x0) * (rung - c1) / (c1 - c0)
+                starts = [x1 + (x1 - x0) * (rung - c1) / (c1 - c0), x1, base_x]
             found: list[tuple[float, np.ndarray]] = []
 
             def at_rung(y: np.ndarray, _: str, rung: float = rung, found: list = found) -> float:
@@ -90,7 +92,8 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
                 found.append((loss, np.asarray(y)))
                 return loss
 
-            simplex_search(at_rung, np.clip(law, *law_box), law_step, rung_evaluations, phase, box=law_box)
+            start = min((np.clip(x, *law_box) for x in starts), key=lambda x: at_rung(x, phase))
+            simplex_search(at_rung, start, law_step, rung_evaluations, phase, box=law_box)
             loss, law = min(found, key=lambda f: f[0])
             path.append((rung, law))
             profile.append((value, loss))

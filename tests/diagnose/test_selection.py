@@ -68,7 +68,30 @@ def test_a_profile_follows_the_law_an_effect_needs_far_from_the_base_fit(tmp_pat
     assert refit.x[:2] == pytest.approx(valley(refit.x[2]), abs=0.15)
     assert refit.loss < 0.05 < loss(np.r_[base_x, null]) / 20
     assert refit.held_out_loss == pytest.approx(2 * refit.loss) and refit.parameters == 3
-    assert len(log.records) <= 1 + 4 * 5
+    assert len(log.records) <= 1 + 4 * 5 + 3 * 3  # a short search per rung, three starts tried from the second
+
+
+def test_a_profile_follows_a_valley_that_turns_back_to_the_base_law(tmp_path):
+    """A sticky-floor fit compensated a floor of coefficient 0.25 with a weaker material; along the rungs the law
+    that fits first moves away from the base fit (log tau_y down 0.5 at 0.7) and then back to it at the true
+    coefficient. Extrapolating the first rungs' laws would start the last rung's search far off the valley."""
+    candidate = CANDIDATES["floor_friction"]
+    base_x = np.log([8.0, 2.5])
+    null, target = candidate.nearest_null, candidate.coordinate(0.25)
+
+    turn = candidate.coordinate(0.7)
+
+    def valley(c: float) -> np.ndarray:
+        away = (null - c) / (null - turn) if c >= turn else max(c - target, 0.0) / (turn - target)
+        return base_x + np.array([-0.5, 0.0]) * away
+
+    def loss(p: np.ndarray) -> float:
+        return 0.01 + 10 * float(np.sum((p[:2] - valley(p[2])) ** 2)) + 0.2 * (p[2] - target) ** 2
+
+    log = EvaluationLog(tmp_path / "log.json", "key")
+    refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, 0.3, 5)
+    assert candidate.value(refit.x[2]) == pytest.approx(0.25)
+    assert refit.loss < 0.02
 
 
 @pytest.mark.parametrize("name", ["shear_thinning", "thixotropy", "floor_friction", "gravity_tilt"])
