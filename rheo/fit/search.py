@@ -39,6 +39,8 @@ logger = logging.getLogger(__name__)
 # the surface stops moving where it promises a loss lower by less than this fraction of the tolerance: a valley flat
 # at that scale cannot place the estimate along it, and walking on would follow the loss's roughness
 FLAT = 0.25
+# each interval end is walked outward along its axis, a design half-width a step, at most this many steps
+END_STEPS = 8
 
 
 class SilhouetteTarget:
@@ -261,6 +263,35 @@ def _inside(interval: Interval, value: float) -> bool:
                                         and (value <= interval.high or interval.open[1]))
 
 
+def walk_ends(evaluate_many: Callable[[list[np.ndarray]], list[float]], estimate: np.ndarray, extents: np.ndarray,
+              open_ends: np.ndarray, box: tuple[np.ndarray, np.ndarray], step: float, level: float
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The intervals' ends (coordinates, 2) checked on the loss itself: from each, along its axis through the
+    ``estimate``, a point ``step`` further out is evaluated, and the next while the loss stays within ``level``
+    (``END_STEPS`` at most, not past ``box``); an end moves to the farthest point within the level, open where
+    the walk ran out of steps or reached the box. A quadratic surface misjudges a valley that flattens on one side
+    (a viscosity too low to show): its ends fall short where the loss itself stays low."""
+    extents, open_ends = extents.copy(), open_ends.copy()
+    walking = [(i, side) for i in range(len(estimate)) for side in (0, 1)]
+    for done in range(END_STEPS):
+        probes = []
+        for i, side in walking:
+            probe = estimate.copy()
+            probe[i] = np.clip(extents[i, side] + (step if side else -step), box[0][i], box[1][i])
+            probes.append(probe)
+        losses = evaluate_many(probes) if probes else []
+        still = []
+        for (i, side), probe, loss in zip(walking, probes, losses, strict=True):
+            within = loss <= level
+            open_ends[i, side] = within and (done == END_STEPS - 1 or probe[i] in (box[0][i], box[1][i]))
+            if within:
+                extents[i, side] = probe[i]
+                if not open_ends[i, side]:
+                    still.append((i, side))
+        walking = still
+    return extents, open_ends
+
+
 def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequence[int], names: Sequence[str],
                      seen: Callable[[], tuple[np.ndarray, np.ndarray]], half_width: float, rounds: int,
                      tolerance: float, box: tuple[np.ndarray, np.ndarray],
@@ -301,13 +332,16 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
                        "(%.5g): the best evaluated is the estimate", loss, losses[best])
         y, loss = points[best], float(losses[best])
     extents, open_ends = refinement.surface.extents(tolerance, refinement.reach, y)
+    extents = np.column_stack([np.clip(extents[:, 0], inner[0], y), np.clip(extents[:, 1], y, inner[1])])
+    extents, open_ends = walk_ends(lambda ys: evaluate_many([embed(v) for v in ys], phase), y, extents, open_ends,
+                                   inner, refinement.half_width, (1.0 + tolerance) * min(loss, float(losses.min())))
+    points, losses = seen_here()
     free_names = [names[i] for i in free]
     if open_ends.any():
-        logger.warning("the region within the tolerance goes on past the surface's reach (%.2f log units) at %s: "
-                       "those ends of the intervals are lower bounds", refinement.reach,
-                       ", ".join(f"{n}'s {side}" for n, ends in zip(free_names, open_ends, strict=True)
-                                 for side, end in zip(("low", "high"), ends, strict=True) if end))
-    extents = np.column_stack([np.clip(extents[:, 0], inner[0], y), np.clip(extents[:, 1], y, inner[1])])
+        logger.warning("the region within the tolerance goes on past the evaluations at %s: those ends of the "
+                       "intervals are lower bounds", ", ".join(
+                           f"{n}'s {side}" for n, ends in zip(free_names, open_ends, strict=True)
+                           for side, end in zip(("low", "high"), ends, strict=True) if end))
     intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)), tuple(ends.tolist()))
                  for n, v, (lo, hi), ends in zip(free_names, y, extents, open_ends, strict=True)}
     intervals = tolerated(points, losses, tolerance).widen(intervals, free_names)
