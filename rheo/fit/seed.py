@@ -2,7 +2,9 @@
 
 Several views: a static voxel radiance field (density, colour) fitted to every camera's first frame, coarse to fine,
 with the thesis' surface regulariser (eq. 3.8), started from the visual hull of the masks; particles then fill the
-voxels the field makes opaque and take its density and colour. One view: the proxy's geometry, coloured from the view.
+voxels the field makes opaque and take its density and colour, carved node by node to the masks on the lattice
+placement that draws them best, and the top layers no outline needs (a cap over a flat top) are trimmed. One view: the
+proxy's geometry, coloured from the view.
 """
 
 from __future__ import annotations
@@ -246,15 +248,14 @@ def carve(obs: Observations, grid: VoxelGrid, occupied: np.ndarray, frame: int =
         for node in np.flatnonzero((grown | boundary).reshape(-1) & above):
             add = not flat[node]
             changes = [view.change(node, add) for view in views]
-            seen = any(len(c[2]) for c in changes)
             gain = sum(c[0] for c in changes)
-            if seen and gain < 0:
+            if gain < 0:
                 for view, (_, *change) in zip(views, changes, strict=True):
                     view.apply(add, *change)
                 flat[node] = add
                 wrong += gain
                 changed += 1
-        logger.info("carving pass %d: %d nodes changed, %d pixels disagree with the masks", done, changed, wrong)
+        logger.debug("carving pass %d: %d nodes changed, %d pixels disagree with the masks", done, changed, wrong)
         if not changed:
             break
     return occupied
