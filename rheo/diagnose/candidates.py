@@ -81,7 +81,7 @@ class Candidate:
 CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
     # null: a sticky floor (an infinite coefficient); the box reaches from a floor that barely holds to nearly sticky
     Candidate("floor_friction", "floor friction (the material slides on the floor)", "Coulomb coefficient", "",
-              math.inf, 0.05, 5.0, ((2.0, 0.7, 0.25, 0.09),)),
+              math.inf, 0.05, 5.0, ((2.0, 1.0, 0.5, 0.3, 0.18, 0.1),)),
     Candidate("wall_adhesion", "wall adhesion (smooth walls hold the material)", "adhesion", "Pa", 0.0, 1.0, 1000.0,
               ((5.0, 15.0, 45.0, 135.0),)),
     Candidate("gate_lift", "a gate lifted at a finite speed", "lift time", "s", 0.0, 0.005, 0.3,

@@ -50,8 +50,8 @@ LAW_BOX = (np.log([0.1, 0.1]), np.log([100.0, 100.0]))
 
 def test_a_profile_follows_the_law_an_effect_needs_far_from_the_base_fit(tmp_path):
     """The data want a Coulomb coefficient of 0.3, and at each coefficient a law that moves away from the base fit
-    the more the material slides (log tau_y up 0.5, log K down 0.3 per unit of log coefficient): at 0.25 (the
-    nearest rung) a factor 4.5 in tau_y. Climbing the rungs, the profile follows that valley."""
+    the more the material slides (log tau_y up 0.5, log K down 0.3 per unit of log coefficient): at 0.3 a factor
+    4.1 in tau_y. Climbing the rungs, the profile follows that valley."""
     candidate = CANDIDATES["floor_friction"]
     base_x = np.log([8.0, 2.5])
     null, target = candidate.nearest_null, candidate.coordinate(0.3)
@@ -64,22 +64,22 @@ def test_a_profile_follows_the_law_an_effect_needs_far_from_the_base_fit(tmp_pat
 
     log = EvaluationLog(tmp_path / "log.json", "key")
     refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, 0.3, 5)
-    assert candidate.value(refit.x[2]) == pytest.approx(0.25)
+    assert candidate.value(refit.x[2]) == pytest.approx(0.3)
     assert refit.x[:2] == pytest.approx(valley(refit.x[2]), abs=0.15)
     assert refit.loss < 0.05 < loss(np.r_[base_x, null]) / 20
     assert refit.held_out_loss == pytest.approx(2 * refit.loss) and refit.parameters == 3
-    assert len(log.records) <= 1 + 4 * 5 + 3 * 3  # a short search per rung, three starts tried from the second
+    rungs = len(candidate.rungs[0])
+    assert len(log.records) <= 1 + rungs * 5 + (rungs - 1) * 3  # a short search a rung, three starts from the second
 
 
 def test_a_profile_follows_a_valley_that_turns_back_to_the_base_law(tmp_path):
-    """A sticky-floor fit compensated a floor of coefficient 0.25 with a weaker material; along the rungs the law
-    that fits first moves away from the base fit (log tau_y down 0.5 at 0.7) and then back to it at the true
+    """A sticky-floor fit compensated a floor of coefficient 0.3 with a weaker material; along the rungs the law
+    that fits first moves away from the base fit (log tau_y down 0.5 at 1.0) and then back to it at the true
     coefficient. Extrapolating the first rungs' laws would start the last rung's search far off the valley."""
     candidate = CANDIDATES["floor_friction"]
     base_x = np.log([8.0, 2.5])
-    null, target = candidate.nearest_null, candidate.coordinate(0.25)
-
-    turn = candidate.coordinate(0.7)
+    null, target = candidate.nearest_null, candidate.coordinate(0.3)
+    turn = candidate.coordinate(1.0)
 
     def valley(c: float) -> np.ndarray:
         away = (null - c) / (null - turn) if c >= turn else max(c - target, 0.0) / (turn - target)
@@ -90,7 +90,7 @@ def test_a_profile_follows_a_valley_that_turns_back_to_the_base_law(tmp_path):
 
     log = EvaluationLog(tmp_path / "log.json", "key")
     refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, 0.3, 5)
-    assert candidate.value(refit.x[2]) == pytest.approx(0.25)
+    assert candidate.value(refit.x[2]) == pytest.approx(0.3)
     assert refit.loss < 0.02
 
 
