@@ -142,8 +142,9 @@ def render(name: str, params: dict, sections: list[tuple[str, str]], config: dic
     undetermined = [SYMBOLS.get(k, k) for k, p in params["parameters"].items() if not p["determined"]]
     body.append(f"<p>Intervals: each parameter's range over the materials whose loss lies within "
                 f"{params['tolerance']:.0%} of the best fit's (the fit model's own error), from the surface fitted to "
-                "the loss around the estimate, trade-offs between parameters included; &lt; or &gt; marks an end "
-                "where that region goes on past the evaluations' reach.</p>")
+                "the loss around the estimate, trade-offs between parameters included, each end then walked out "
+                "along its axis on the loss itself; &lt; or &gt; marks an end where that region goes on past the "
+                "evaluations' reach.</p>")
     if undetermined:
         body.append("<p>Not determined by this recording: " + ", ".join(undetermined) + " (the interval spans more "
                     "than a factor 4 or has an open end: the loss barely changes along it). Those whose initial guess "
