@@ -20,9 +20,10 @@ cameras = read_json(smk.input.cameras)["cameras"]
 camera = Camera.from_record(cameras[cfg["camera"] or next(iter(cameras))])
 spacing = particle_spacing(sim_cfg)
 size = sim_cfg["domain_size"]
-particles = mesh_particles(cfg["mesh"], cfg["height"], tuple(cfg["position"] or (size / 2, size / 2)), spacing)
+height = cfg["height"] or size / 5
+particles = mesh_particles(cfg["mesh"], height, tuple(cfg["position"] or (size / 2, size / 2)), spacing)
 material = recovered_material(params["herschel_bulkley"])
-log.info("%s scaled to %.3g m: %d particles; simulating %g s with %s", cfg["mesh"], cfg["height"], len(particles),
+log.info("%s scaled to %.3g m: %d particles; simulating %g s with %s", cfg["mesh"], height, len(particles),
          sim_cfg["duration"], material)
 positions = simulate(simulator(exp, sim_cfg["resolution"], mat=material), particles, spacing, sim_cfg["duration"],
                      sim_cfg["frames"])
