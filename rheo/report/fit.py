@@ -123,11 +123,13 @@ def parameter_rows(params: dict) -> tuple[list[str], list[list[str]], list[str]]
     header = ["parameter", "truth", "initial guess", "recovered", "95 % interval", "error", "determined"]
     rows, classes = [], []
     for name, p in params.items():
-        error = p.get("error")
+        error, held = p.get("error"), p.get("held_at_initial_guess", False)
         rows.append([SYMBOLS.get(name, name), f"{p['truth']:.4g}" if "truth" in p else "unknown",
-                     f"{p['initial']:.4g}", f"{p['value']:.4g}", interval_text(p),
-                     f"{error:+.1%}" if error is not None else "-", "yes" if p["determined"] else "no"])
-        classes.append("" if error is None else ("good" if abs(error) <= 0.1 else "bad"))
+                     f"{p['initial']:.4g}", f"{p['value']:.4g}" + (" (held at the guess)" if held else ""),
+                     interval_text(p), f"{error:+.1%}" if error is not None else "-",
+                     "yes" if p["determined"] else "no"])
+        # a parameter held at its guess was not recovered, however near the truth the guess was
+        classes.append("" if error is None or held else ("good" if abs(error) <= 0.1 else "bad"))
     return header, rows, classes
 
 
