@@ -21,7 +21,7 @@ from tqdm.auto import tqdm
 
 from rheo.fit.observations import Observations, sample_rays
 from rheo.render.field import WHITE, VoxelGrid, march
-from rheo.render.silhouette import DISC, SUPERSAMPLE, disc_kernel, iou, silhouette
+from rheo.render.silhouette import SUPERSAMPLE, disc_kernel, disc_radius, iou, silhouette, subpixels
 
 logger = logging.getLogger(__name__)
 
@@ -191,11 +191,8 @@ class _ViewCoverage:
         s = SUPERSAMPLE
         width = camera.width * s
         uv, depth = camera.project(centres)
-        sub = np.floor((uv + 0.5) * s).astype(int)
-        seen = (depth > 0) & (sub[:, 0] >= 0) & (sub[:, 0] < width) & (sub[:, 1] >= 0) & (
-            sub[:, 1] < camera.height * s)
-        radius = DISC * spacing * camera.K[0, 0] * s / float(np.median(depth[occupied & seen]))
-        kernel = disc_kernel(radius)
+        sub, seen = subpixels(camera, uv, depth)
+        kernel = disc_kernel(disc_radius(camera, spacing, depth[occupied & seen]))
         dy, dx = np.nonzero(kernel)
         rows = sub[:, 1, None] + dy - kernel.shape[0] // 2
         columns = sub[:, 0, None] + dx - kernel.shape[1] // 2
@@ -207,9 +204,6 @@ class _ViewCoverage:
         self.discs = np.zeros(camera.height * s * width, np.int32)
         np.add.at(self.discs, self.footprint[occupied][inside[occupied]], 1)
         self.covered = (self.discs > 0).reshape(camera.height, s, camera.width, s).sum(axis=(1, 3)).ravel()
-
-    def silhouette(self) -> np.ndarray:
-        return 2 * self.covered >= SUPERSAMPLE**2
 
     def change(self, node: int, add: bool) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
         """What adding (removing) ``node`` does: the change in the number of pixels where the silhouette and the mask
@@ -240,7 +234,6 @@ def carve(obs: Observations, grid: VoxelGrid, occupied: np.ndarray, frame: int =
     centres = grid.centres().reshape(-1, 3)
     above = centres[:, 1] > 0
     views = [_ViewCoverage(v.camera, v.masks[frame].astype(bool), centres, flat, grid.spacing) for v in obs.views]
-    wrong = sum(int((v.silhouette() != v.mask).sum()) for v in views)
     for done in range(1, passes + 1):
         grown = ndimage.binary_dilation(occupied) & ~occupied
         boundary = occupied & ~ndimage.binary_erosion(occupied, border_value=0)
@@ -248,14 +241,12 @@ def carve(obs: Observations, grid: VoxelGrid, occupied: np.ndarray, frame: int =
         for node in np.flatnonzero((grown | boundary).reshape(-1) & above):
             add = not flat[node]
             changes = [view.change(node, add) for view in views]
-            gain = sum(c[0] for c in changes)
-            if gain < 0:
+            if sum(c[0] for c in changes) < 0:
                 for view, (_, *change) in zip(views, changes, strict=True):
                     view.apply(add, *change)
                 flat[node] = add
-                wrong += gain
                 changed += 1
-        logger.debug("carving pass %d: %d nodes changed, %d pixels disagree with the masks", done, changed, wrong)
+        logger.debug("carving pass %d: %d nodes changed", done, changed)
         if not changed:
             break
     return occupied

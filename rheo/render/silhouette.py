@@ -23,20 +23,32 @@ def disc_kernel(radius: float) -> np.ndarray:
     return (x * x + y * y <= radius * radius + 0.25).astype(np.uint8)
 
 
+def subpixels(camera: Camera, uv: np.ndarray, depth: np.ndarray, supersample: int = SUPERSAMPLE
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """The sub-pixel (column, row) each projected point falls in, on a raster ``supersample`` times finer, and
+    whether it is in front of the camera and inside the image."""
+    # pixel centres at integers (OpenCV): sub-pixel (i, j) of pixel (u, v) has centre u + (j + 0.5) / s - 0.5
+    sub = np.floor((uv + 0.5) * supersample).astype(int)
+    inside = (depth > 0) & (sub[:, 0] >= 0) & (sub[:, 0] < camera.width * supersample) & (sub[:, 1] >= 0) & (
+        sub[:, 1] < camera.height * supersample)
+    return sub, inside
+
+
+def disc_radius(camera: Camera, spacing: float, depths: np.ndarray, supersample: int = SUPERSAMPLE) -> float:
+    """The discs' radius in sub-pixels: ``DISC`` spacings at the median of ``depths``."""
+    return DISC * spacing * camera.K[0, 0] * supersample / float(np.median(depths))
+
+
 def coverage(camera: Camera, points: np.ndarray, spacing: float, supersample: int = SUPERSAMPLE,
              projection: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """The fraction (H, W) of every pixel covered by the particles' discs (radius from the median depth);
     ``projection``: the points' ``camera.project``, where the caller has it."""
     uv, depth = projection or camera.project(np.asarray(points, dtype=np.float64))
-    height, width = camera.height * supersample, camera.width * supersample
-    # pixel centres at integers (OpenCV): sub-pixel (i, j) of pixel (u, v) has centre u + (j + 0.5) / s - 0.5
-    sub = np.floor((uv + 0.5) * supersample).astype(int)
-    keep = (depth > 0) & (sub[:, 0] >= 0) & (sub[:, 0] < width) & (sub[:, 1] >= 0) & (sub[:, 1] < height)
-    hits = np.zeros((height, width), np.uint8)
+    sub, keep = subpixels(camera, uv, depth, supersample)
+    hits = np.zeros((camera.height * supersample, camera.width * supersample), np.uint8)
     hits[sub[keep, 1], sub[keep, 0]] = 1
     if keep.any():
-        radius = DISC * spacing * camera.K[0, 0] * supersample / float(np.median(depth[keep]))
-        hits = cv2.dilate(hits, disc_kernel(radius))
+        hits = cv2.dilate(hits, disc_kernel(disc_radius(camera, spacing, depth[keep], supersample)))
     return cv2.resize(hits.astype(np.float32), (camera.width, camera.height), interpolation=cv2.INTER_AREA)
 
 
