@@ -4,9 +4,9 @@ was made with the material at its guess, whose different collapse it partly abso
 then simplex searches on every frame from the survey's best few points, rounds of a composite design around the best
 point found, each followed by a quadratic fitted to the squared losses (rheo.fit.surface): its lowest point is the
 estimate and the region where it stays within the tolerance gives the intervals. Parameters the recording does not
-determine are held at their initial guess and the others' surface fitted again. Evaluations run on the stage's
-threads side by side, and every one is stored, so an interrupted fit replays them and goes on. The full phase writes
-params.json and history.csv."""
+determine are held at their initial guess and the others searched again (a simplex, then their surface). Evaluations
+run on the stage's threads side by side, and every one is stored, so an interrupted fit replays them and goes on.
+The full phase writes params.json and history.csv."""
 
 import csv
 from functools import partial

@@ -41,6 +41,8 @@ logger = logging.getLogger(__name__)
 FLAT = 0.25
 # each interval end is walked outward along its axis, a design half-width a step, at most this many steps
 END_STEPS = 8
+# then a closed end is placed to within 1 / 2**END_HALVINGS of a step by bisection
+END_HALVINGS = 2
 
 
 class SilhouetteTarget:
@@ -220,8 +222,9 @@ def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: S
     (``EvaluationLog.seen``); ``evaluate_estimate`` evaluates the estimate (by default as phase "estimate").
 
     With a ``guess``, parameters the recordings do not determine and whose guess lies inside their interval (or
-    beyond an open end) are held at the guess and the surface of the others fitted again, unless that loses more
-    than the tolerance: a flat direction would otherwise leave them wherever the roughness of the loss took them.
+    beyond an open end) are held at the guess and the others searched again (a simplex, then their surface), unless
+    that loses more than the tolerance: a flat direction would otherwise leave them wherever the roughness of the
+    loss took them.
     (A stiff material's moduli, say, are undetermined above some value but matter below it: a guess below stays
     unused.)"""
     evaluate_estimate = evaluate_estimate or (lambda x: evaluate_many([x], "estimate")[0])
@@ -237,6 +240,16 @@ def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: S
         return result
     fixed = x.copy()
     fixed[held] = guess[held]
+    # the valley of the others moves with the held values: a simplex search finds its floor before the surface
+
+    def with_free(y: np.ndarray) -> np.ndarray:
+        z = fixed.copy()
+        z[free] = y
+        return z
+
+    fixed[free], _ = simplex_search(lambda y, phase: evaluate_many([with_free(y)], phase)[0], fixed[free],
+                                    start_step, evaluations // len(starts), "start, held",
+                                    box=(box[0][free], box[1][free]))
     y, held_loss, free_intervals, evidence = surface_estimate(evaluate_many, fixed, free, names, seen, half_width,
                                                               rounds, tolerance, box, evaluate_estimate,
                                                               "surface, held")
@@ -269,26 +282,42 @@ def walk_ends(evaluate_many: Callable[[list[np.ndarray]], list[float]], estimate
     """The intervals' ends (coordinates, 2) checked on the loss itself: from each, along its axis through the
     ``estimate``, a point ``step`` further out is evaluated, and the next while the loss stays within ``level``
     (``END_STEPS`` at most, not past ``box``); an end moves to the farthest point within the level, open where
-    the walk ran out of steps or reached the box. A quadratic surface misjudges a valley that flattens on one side
-    (a viscosity too low to show): its ends fall short where the loss itself stays low."""
+    the walk ran out of steps or reached the box. A closed end is then placed between its last point within the level
+    and the first beyond by ``END_HALVINGS`` bisections. A quadratic surface misjudges a valley that flattens on one
+    side (a viscosity too low to show): its ends fall short where the loss itself stays low."""
     extents, open_ends = extents.copy(), open_ends.copy()
+    beyond = np.full(extents.shape, np.nan)  # the first point out along each closed end's axis past the level
+
+    def probe_all(ends: list[tuple[int, int]], coordinates: list[float]) -> list[bool]:
+        probes = []
+        for (i, _), value in zip(ends, coordinates, strict=True):
+            probe = estimate.copy()
+            probe[i] = value
+            probes.append(probe)
+        return [loss <= level for loss in (evaluate_many(probes) if probes else [])]
+
     walking = [(i, side) for i in range(len(estimate)) for side in (0, 1)]
     for done in range(END_STEPS):
-        probes = []
-        for i, side in walking:
-            probe = estimate.copy()
-            probe[i] = np.clip(extents[i, side] + (step if side else -step), box[0][i], box[1][i])
-            probes.append(probe)
-        losses = evaluate_many(probes) if probes else []
+        coordinates = [float(np.clip(extents[i, side] + (step if side else -step), box[0][i], box[1][i]))
+                       for i, side in walking]
         still = []
-        for (i, side), probe, loss in zip(walking, probes, losses, strict=True):
-            within = loss <= level
-            open_ends[i, side] = within and (done == END_STEPS - 1 or probe[i] in (box[0][i], box[1][i]))
+        for (i, side), value, within in zip(walking, coordinates, probe_all(walking, coordinates), strict=True):
+            open_ends[i, side] = within and (done == END_STEPS - 1 or value in (box[0][i], box[1][i]))
             if within:
-                extents[i, side] = probe[i]
+                extents[i, side] = value
                 if not open_ends[i, side]:
                     still.append((i, side))
+            else:
+                beyond[i, side] = value
         walking = still
+    closed = [(i, side) for i, side in zip(*np.nonzero(~np.isnan(beyond)), strict=True)]
+    for _ in range(END_HALVINGS):
+        middles = [0.5 * (extents[i, side] + beyond[i, side]) for i, side in closed]
+        for (i, side), value, within in zip(closed, middles, probe_all(closed, middles), strict=True):
+            if within:
+                extents[i, side] = value
+            else:
+                beyond[i, side] = value
     return extents, open_ends
 
 
