@@ -7,6 +7,7 @@ import html
 import io
 import json
 import math
+import re
 
 import imageio.v2 as imageio
 import matplotlib
@@ -23,14 +24,18 @@ SYMBOLS = {"mu": "μ", "lam": "λ", "sigma_y": "σ_y", "eta": "η", "tau_y": "τ
 def training_figure(history: list[dict], names: list[str], truth: dict[str, float]):
     """Thesis Appendix A's layout for a search: the loss of every evaluation and the best so far; each evaluation's
     distance from the best point so far per parameter (the search's step, in place of a learning rate); one panel
-    per parameter. Phases are separated by dotted lines."""
+    per parameter. Phases are separated by dotted lines (searches run side by side count as one phase). The best so
+    far starts again where the rows' "best_loss" does (the warm-up's loss is over fewer frames than the full one's)."""
     rows = math.ceil(len(names) / 2) + 1
     fig, axes = plt.subplots(rows, 2, figsize=(10, 2.8 * rows), squeeze=False)
     step = np.arange(len(history))
     loss = np.array([float(h["loss"]) for h in history])
     values = np.log(np.array([[float(h[n]) for n in names] for h in history]))
-    best = np.minimum.accumulate(loss)
-    best_index = np.array([int(np.argmin(loss[:i + 1])) for i in range(len(loss))])
+    best_index = np.zeros(len(loss), dtype=int)
+    for i in range(1, len(loss)):
+        restarts = "best_loss" in history[i] and float(history[i]["best_loss"]) > float(history[i - 1]["best_loss"])
+        best_index[i] = i if restarts or loss[i] < loss[best_index[i - 1]] else best_index[i - 1]
+    best = loss[best_index]
     distance = np.abs(values - values[best_index])
     ax = axes[0, 0]
     ax.plot(step, loss, ".", ms=3, color="0.6", label="evaluation")
@@ -52,7 +57,7 @@ def training_figure(history: list[dict], names: list[str], truth: dict[str, floa
             ax.legend(fontsize=8)
         ax.set_yscale("log")
         ax.set_title(SYMBOLS.get(n, n), fontsize=10)
-    phases = [h["phase"] for h in history]
+    phases = [re.sub(r" \d+$", "", h["phase"]) for h in history]  # "start 1", "start 2": one phase
     changes = [i for i in range(1, len(phases)) if phases[i] != phases[i - 1]]
     for ax in axes.ravel()[:2 + len(names)]:
         for i in changes:

@@ -1,6 +1,10 @@
-"""The fit report's parameter table: errors against the truth, coloured only where the fit recovered the value."""
+"""The fit report: the parameter table's errors against the truth, coloured only where the fit recovered the value;
+the training figure's best so far and phase lines."""
 
-from rheo.report.fit import parameter_rows
+import matplotlib.pyplot as plt
+import numpy as np
+
+from rheo.report.fit import parameter_rows, training_figure
 
 
 def entry(value: float, truth: float, held: bool = False) -> dict:
@@ -15,3 +19,19 @@ def test_errors_are_judged_only_for_recovered_parameters():
     assert rows[0][header.index("error")] == "+5.0%" and rows[1][header.index("error")] == "+50.0%"
     assert "held at the guess" in rows[2][header.index("recovered")]
     assert rows[2][header.index("95 % interval")] == "[<0.5, 2]"
+
+
+def test_the_best_so_far_starts_again_with_the_full_phase_and_side_by_side_searches_are_one_phase():
+    """The warm-up's losses (fewer frames) are lower than any of the full phase's: its best must not stand for the
+    full phase's."""
+    rows = [("survey", 0.3, 0.3, 10.0), ("survey", 0.1, 0.1, 20.0), ("start 1", 0.5, 0.5, 30.0),
+            ("start 2", 0.4, 0.4, 40.0), ("start 1", 0.45, 0.4, 50.0), ("surface", 0.2, 0.2, 60.0)]
+    history = [{"phase": phase, "loss": loss, "best_loss": best, "mu": mu} for phase, loss, best, mu in rows]
+    fig = training_figure(history, ["mu"], {})
+    loss_axes, mu_axes = fig.axes[0], fig.axes[2]
+    best = loss_axes.get_lines()[1].get_ydata()
+    assert np.allclose(best, [0.3, 0.1, 0.5, 0.4, 0.4, 0.2])
+    assert np.allclose(mu_axes.get_lines()[1].get_ydata(), [10.0, 20.0, 30.0, 40.0, 40.0, 60.0])
+    changes = [line.get_xdata()[0] for line in loss_axes.get_lines()[2:]]
+    assert changes == [2, 5]  # survey | starts | surface
+    plt.close(fig)
