@@ -241,13 +241,7 @@ def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: S
     fixed = x.copy()
     fixed[held] = guess[held]
     # the valley of the others moves with the held values: a simplex search finds its floor before the surface
-
-    def with_free(y: np.ndarray) -> np.ndarray:
-        z = fixed.copy()
-        z[free] = y
-        return z
-
-    fixed[free], _ = simplex_search(lambda y, phase: evaluate_many([with_free(y)], phase)[0], fixed[free],
+    fixed[free], _ = simplex_search(lambda y, phase: evaluate_many([_embed(fixed, free, y)], phase)[0], fixed[free],
                                     start_step, evaluations // len(starts), "start, held",
                                     box=(box[0][free], box[1][free]))
     y, held_loss, free_intervals, evidence = surface_estimate(evaluate_many, fixed, free, names, seen, half_width,
@@ -267,6 +261,13 @@ def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: S
     result.log_values, result.loss, result.intervals = x, loss, intervals
     result.held = [names[i] for i in held]
     return result
+
+
+def _embed(centre: np.ndarray, free: Sequence[int], y: np.ndarray) -> np.ndarray:
+    """``centre`` with its ``free`` coordinates set to ``y``."""
+    z = centre.copy()
+    z[list(free)] = y
+    return z
 
 
 def _inside(interval: Interval, value: float) -> bool:
@@ -333,9 +334,7 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
     held = [i for i in range(len(centre)) if i not in free]
 
     def embed(y: np.ndarray) -> np.ndarray:
-        z = centre.copy()
-        z[free] = y
-        return z
+        return _embed(centre, free, y)
 
     def seen_here() -> tuple[np.ndarray, np.ndarray]:
         points, losses = seen()
