@@ -19,13 +19,15 @@ def material(cfg: dict) -> HerschelBulkley:
 
 def simulator(exp: dict, resolution: int, dtype=torch.float32, mat: HerschelBulkley | None = None) -> Simulator:
     """The experiment's scene at ``resolution`` (its own material unless ``mat`` is given): floor at y = 0, three
-    grid cells below it in the domain."""
+    grid cells below it in the domain; the step fixed by ``substeps`` where the experiment sets it."""
     sim_cfg = exp["simulation"]
     size = sim_cfg["domain_size"]
+    substeps = sim_cfg.get("substeps")
+    dt = None if substeps is None else sim_cfg["duration"] / (sim_cfg["frames"] - 1) / substeps
     return Simulator(material(exp["material"]) if mat is None else mat, resolution=resolution, domain_size=size,
                      domain_origin=_domain_origin(size / resolution), dtype=dtype,
                      colliders=[Floor(height=0.0, contact=sim_cfg["floor"], friction=sim_cfg["floor_friction"])],
-                     gravity=sim_cfg["gravity"])
+                     gravity=sim_cfg["gravity"], dt=dt)
 
 
 def _domain_origin(dx: float) -> tuple[float, float, float]:

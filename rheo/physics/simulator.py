@@ -91,13 +91,19 @@ class Simulator:
 
     ``physics`` switches on effects beyond the base model (``OptionalPhysics``); a thixotropic rollout is not
     differentiated.
+
+    ``dt`` fixes the step of every rollout (rounded to divide the frame interval); without it each rollout takes the
+    largest step its material's stability limit allows. At the coarse grids a fit affords, the simulated flow depends
+    on the step (the particle-grid transfers dissipate a little at every step), so materials compared with one
+    another, in a fit and in the virtual lab that made its recordings, should share one step.
     """
 
     def __init__(self, material: Material, *, resolution: int = 32, domain_size: float = 1.0,
                  colliders: tuple[Collider, ...] | list[Collider] = (), gravity=(0.0, -9.8, 0.0),
                  dtype: torch.dtype = torch.float32, cfl: float = 0.4, max_halvings: int = 4,
                  checkpoint_mb: float = 1024.0, domain_origin=(0.0, 0.0, 0.0),
-                 symmetry_z: float | None = None, physics: OptionalPhysics | None = None) -> None:
+                 symmetry_z: float | None = None, physics: OptionalPhysics | None = None,
+                 dt: float | None = None) -> None:
         if not isinstance(material, Material):
             raise MaterialError(f"expected a Material, got {material!r}")
         if not (isinstance(resolution, int) and resolution >= 2 * kernels.BOUND + 2):
@@ -106,6 +112,8 @@ class Simulator:
             raise SimulationError(f"domain size {domain_size!r} must be finite and > 0")
         if not (0 < cfl <= 1):
             raise SimulationError(f"CFL number {cfl!r} must lie in (0, 1]")
+        if dt is not None and not (math.isfinite(dt) and dt > 0):
+            raise SimulationError(f"time step {dt!r} s must be finite and > 0")
         gravity = tuple(float(g) for g in gravity)
         if len(gravity) != 3 or not all(math.isfinite(g) for g in gravity):
             raise SimulationError(f"gravity {gravity!r} must be three finite numbers")
@@ -128,6 +136,7 @@ class Simulator:
         self.dtype = dtype
         self.scalar = kernels.scalar_type(dtype)
         self.cfl = cfl
+        self.dt = dt
         self.max_halvings = max_halvings
         self.checkpoint_mb = checkpoint_mb
         wp.init()
@@ -213,8 +222,8 @@ class Simulator:
 
         ``v0`` is one vector (3,) or one per particle (N, 3). ``material_params`` (ordered as the material's
         ``parameter_names``) and ``boundary_params`` (one row [friction, vx, vy, vz] per collider) default to the
-        values the simulator was built with. Without ``dt`` the step comes from the CFL limit; an unstable run is
-        retried at half the step, up to ``max_halvings`` times.
+        values the simulator was built with. Without ``dt`` the step is the simulator's own or else comes from the CFL
+        limit; an unstable run is retried at half the step, up to ``max_halvings`` times.
         """
         x0 = x0.to(self.dtype)
         self._check_particles(x0.detach())
@@ -243,6 +252,7 @@ class Simulator:
             raise SimulationError(f"boundary parameters must be finite with shape ({len(self.colliders)}, 4)")
         if (bnd[:, kernels.B_FRICTION] < 0).any():
             raise SimulationError(f"friction coefficients {bnd[:, 0].tolist()} must be >= 0")
+        dt = self.dt if dt is None else dt
         if dt is None:
             speed = float(v0.detach().norm(dim=-1).max()) + max(bnd[:, 1:].detach().norm(dim=-1).tolist(), default=0.0)
             speed += math.sqrt(2.0 * float(np.linalg.norm(self.gravity)) * self.domain_size)

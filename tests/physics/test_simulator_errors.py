@@ -65,3 +65,21 @@ def test_unstable_at_the_smallest_step_raises():
     x0, vol = _block(sim)
     with pytest.raises(SimulationUnstable, match=r"simulation unstable at step \d+ .* even at dt = 0.0025 s"):
         sim.rollout(x0, torch.tensor([0.0, -2.0, 0.0]), frames=2, frame_dt=0.02, particle_volume=vol, dt=5e-3)
+
+
+def test_a_fixed_step_is_shared_by_every_material():
+    soft, stiff = HerschelBulkley(mu=1.0e3, lam=1.0e3), HerschelBulkley(mu=1.0e4, lam=1.0e4)
+    steps = {}
+    for fixed in (None, 1.0e-3):
+        for name, material in (("soft", soft), ("stiff", stiff)):
+            sim = Simulator(material, resolution=16, colliders=[Floor(height=3 / 16)], dt=fixed)
+            x0, vol = _block(sim)
+            steps[fixed, name] = sim.rollout(x0, torch.zeros(3), frames=1, frame_dt=0.01, particle_volume=vol)
+    assert steps[None, "stiff"].dt < steps[None, "soft"].dt  # each material's own stability limit
+    assert steps[1.0e-3, "soft"].dt == steps[1.0e-3, "stiff"].dt == pytest.approx(1.0e-3)
+    explicit = Simulator(soft, resolution=16, colliders=[Floor(height=3 / 16)])
+    x0, vol = _block(explicit)
+    same = explicit.rollout(x0, torch.zeros(3), frames=1, frame_dt=0.01, particle_volume=vol, dt=1.0e-3)
+    assert torch.equal(same.x, steps[1.0e-3, "soft"].x)
+    with pytest.raises(SimulationError, match=r"time step -0\.001 s must be finite and > 0"):
+        Simulator(soft, resolution=16, dt=-1.0e-3)
