@@ -14,8 +14,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import nnls
 
 from rheo.experiments.dam_break import Effects
+
+BAND_POINTS = 9  # shear rates, log-spaced over the band, at which a rung's law matches the last rung's stresses
 
 
 @dataclass(frozen=True)
@@ -77,6 +80,16 @@ class Candidate:
                 return law, dataclasses.replace(effects, density_factor=value)
         raise ValueError(f"unknown effect {self.name!r}")
 
+    def rung_start(self, law: np.ndarray, value: float, next_value: float,
+                   band: tuple[float, float] | None) -> np.ndarray | None:
+        """Where the law (log tau_y, log K) refitted at ``next_value`` may start, given the law fitted at ``value``;
+        None when the effect leaves the law's meaning alone. Shear thinning changes what K means: at another flow
+        index the same K is another stress at the flow's shear rates, so the law starts where its flow curve matches
+        the last one over the shear-rate ``band`` (1/s) that the base fit's flow reaches."""
+        if self.name != "shear_thinning" or band is None:
+            return None
+        return matched_law(law, value, next_value, band)
+
 
 CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
     # null: a sticky floor (an infinite coefficient); the box reaches from a floor that barely holds to nearly sticky
@@ -97,6 +110,18 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
     Candidate("density", "a wrong density (decoy)", "density factor", "", 1.0, 0.5, 2.0,
               ((1.25, 1.6), (0.8, 0.63)), decoy=True, step=0.2),
 )}
+
+
+def matched_law(law: np.ndarray, n: float, next_n: float, band: tuple[float, float]) -> np.ndarray:
+    """(log tau_y, log K) at flow index ``next_n`` whose Herschel-Bulkley flow curve matches that of ``law`` at
+    ``n`` over the shear-rate ``band`` (1/s) most closely in relative stress (non-negative least squares), the
+    yield stress kept above a thousandth of its old value (its logarithm must stay finite)."""
+    rates = np.geomspace(*band, BAND_POINTS)
+    tau_y, K = np.exp(law[:2])
+    stress = tau_y + K * rates**n
+    (new_tau_y, new_K), _ = nnls(np.stack([np.ones_like(rates), rates**next_n], axis=1) / stress[:, None],
+                                 np.ones_like(rates))
+    return np.log([max(new_tau_y, 1e-3 * tau_y), max(new_K, 1e-3 * K)])
 
 
 @dataclass(frozen=True)

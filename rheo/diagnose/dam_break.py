@@ -20,7 +20,7 @@ from rheo.diagnose.candidates import CANDIDATES, Candidate, Law
 from rheo.diagnose.residuals import Location, locate
 from rheo.diagnose.selection import Refit, choose, profile_refit, refits
 from rheo.experiments.virheometry import Setup
-from rheo.fit.dam_break import Comparison, compare_law, targets
+from rheo.fit.dam_break import Comparison, compare_law, shear_rate_band, targets
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, simplex_search
 
@@ -138,8 +138,10 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
 
         evaluate("base")(x_base, "base")
         base = Refit.of("base", log.record("base", x_base))
+        before = dict(zip(setups, evaluator.map([(f"base|{s}", x_base) for s in setups]), strict=True))
+        band = shear_rate_band(list(before.values()))
         found = refits(candidates, lambda c: profile_refit(c, evaluate(c.name), log.best, x_base, law_box,
-                                                           settings["law_step"], settings["rung_evaluations"]),
+                                                           settings["law_step"], settings["rung_evaluations"], band),
                        workers)  # a candidate per worker: a small setup's simulation does not wait for a large one
         for r in sorted(found, key=lambda r: r.criterion):
             logger.info("%s: loss %.4g px (base %.4g), criterion %+.2f", r.name, r.loss, base.loss,
@@ -154,7 +156,6 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
                            f"final {chosen.name}", box=box)
             final = Refit.of(chosen.name, log.best(f"final {chosen.name}"))
             chosen = final if final.loss <= chosen.loss else chosen
-        before = dict(zip(setups, evaluator.map([(f"base|{s}", x_base) for s in setups]), strict=True))
         after = before if chosen is None else dict(zip(setups, evaluator.map(
             [(f"{chosen.name}|{s}", chosen.x) for s in setups]), strict=True))
     location = {}

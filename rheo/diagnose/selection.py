@@ -63,7 +63,8 @@ Best = Callable[[str], dict]
 
 
 def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: np.ndarray,
-                  law_box: tuple[np.ndarray, np.ndarray], law_step: float, rung_evaluations: int) -> Refit:
+                  law_box: tuple[np.ndarray, np.ndarray], law_step: float, rung_evaluations: int,
+                  band: tuple[float, float] | None = None) -> Refit:
     """The candidate's best fit along its profile: from the base fit with the effect at its null (or the nearest
     the box allows, so that the refit, a model holding the base one, ends no worse), the effect climbs its rungs of
     magnitude and the law is refitted at each by a short Nelder-Mead search (``rung_evaluations``, initial simplex
@@ -71,8 +72,9 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
     material, say) needs that law moved far: each rung starts from the law extrapolated from the two before
     (continuation along the valley), unless the previous rung's law or the base fit's does better there (where
     the valley turns: a sliding floor first lowers the yield stress that held the material back, then, once the
-    material slides, needs it back). A branch stops climbing once a rung's loss exceeds the best so far by
-    ``STOP_RISE``."""
+    material slides, needs it back). An effect that changes what the law's parameters mean (shear thinning) also
+    starts from the law matched to the last rung's (``Candidate.rung_start``, over the base flow's shear-rate
+    ``band``). A branch stops climbing once a rung's loss exceeds the best so far by ``STOP_RISE``."""
     phase = f"refit {candidate.name}"
     null = candidate.nearest_null
     lowest = evaluate(np.r_[base_x, null], phase)
@@ -85,6 +87,9 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
             if len(path) > 1:
                 (c0, x0), (c1, x1) = path[-2:]
                 starts = [x1 + (x1 - x0) * (rung - c1) / (c1 - c0), x1, base_x]
+            matched = candidate.rung_start(path[-1][1], candidate.value(path[-1][0]), value, band)
+            if matched is not None:
+                starts.append(matched)
             found: list[tuple[float, np.ndarray]] = []
 
             def at_rung(y: np.ndarray, _: str, rung: float = rung, found: list = found) -> float:

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from rheo.diagnose.candidates import CANDIDATES, Law
+from rheo.diagnose.candidates import CANDIDATES, Law, matched_law
 from rheo.diagnose.selection import Refit, choose, information_criterion, profile_refit
 from rheo.experiments.dam_break import Effects
 from rheo.fit.search import EvaluationLog
@@ -92,6 +92,41 @@ def test_a_profile_follows_a_valley_that_turns_back_to_the_base_law(tmp_path):
     refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, 0.3, 5)
     assert candidate.value(refit.x[2]) == pytest.approx(0.3)
     assert refit.loss < 0.02
+
+
+def test_matched_law_keeps_the_flow_curve_over_the_band():
+    band = (0.5, 20.0)
+    rates = np.geomspace(*band, 50)
+    tau_y, K = np.exp(matched_law(np.log([20.0, 1.5]), 0.5, 1.0, band))
+    error = (tau_y + K * rates) / (20.0 + 1.5 * np.sqrt(rates)) - 1.0
+    assert np.abs(error).max() < 0.03  # a Bingham line through a square-root curve, 20-27 Pa over the band
+    assert matched_law(np.log([20.0, 1.5]), 0.5, 0.5, band) == pytest.approx(np.log([20.0, 1.5]))
+
+
+def test_a_shear_thinning_profile_starts_each_rung_on_the_last_rungs_flow_curve(tmp_path):
+    """The data's flow curve is tau = 20 + 1.5 gamma_dot^0.5 over the shear rates 0.5-20 1/s, and the loss is the
+    law's distance from it there. The base Bingham fit matches it closely; at n = 0.85 the base fit's K means a far
+    lower stress, and a short refit from there ends above the base loss, so the profile stops. Started on the last
+    rung's flow curve, the profile climbs to the rung nearest the truth."""
+    candidate = CANDIDATES["shear_thinning"]
+    band = (0.5, 20.0)
+    rates = np.geomspace(*band, 25)
+    truth = 20.0 + 1.5 * np.sqrt(rates)
+
+    def loss(p: np.ndarray) -> float:
+        tau_y, K = np.exp(p[:2])
+        stress = tau_y + K * rates ** candidate.value(p[2])
+        return 0.005 + 0.05 * math.sqrt(float(np.mean(np.log(stress / truth) ** 2)))
+
+    base_x = matched_law(np.log([20.0, 1.5]), 0.5, 1.0, band)
+    box = (np.log([0.1, 0.01]), np.log([100.0, 100.0]))
+    found = {}
+    for name, given in (("without", None), ("with", band)):
+        log = EvaluationLog(tmp_path / f"{name}.json", "key")
+        found[name] = profile_refit(candidate, _logged(log, loss), log.best, base_x, box, 0.3, 5, given)
+    assert candidate.value(found["without"].x[2]) == 1.0
+    assert candidate.value(found["with"].x[2]) == pytest.approx(0.55)
+    assert found["with"].loss < found["without"].loss - 5e-4
 
 
 @pytest.mark.parametrize("name", ["shear_thinning", "thixotropy", "floor_friction", "gravity_tilt"])
