@@ -39,6 +39,7 @@ def survey_velocities(estimate: np.ndarray) -> list[tuple[str, np.ndarray]]:
     rest: estimated 0.19 m/s along it)."""
     return [("survey", estimate)] + ([("survey, from rest", np.zeros(3))] if np.any(estimate) else [])
 
+
 initial = initial_guess(exp)
 guess = log_values(initial, names).numpy()
 half_width = np.log(settings["warmup"]["box"])
