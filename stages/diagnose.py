@@ -25,6 +25,7 @@ started = time.time()
 setups = setup_files(smk.input.setups, smk.input.masks)
 fit = read_json(smk.input.fit)
 base_values = {name: fit[key]["value"] for name, key in RESULT_KEYS.items()}
+base_intervals = {name: tuple(fit[key]["ci95"]) for name, key in RESULT_KEYS.items()}
 output = Path(smk.output.diagnosis)
 settings = smk.params.settings
 evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
@@ -38,8 +39,8 @@ def progress(law: str, x: np.ndarray, loss: float) -> None:
     log.info("evaluation %d (%s): loss %.5g px at %s", bar.n, law, loss, np.round(x, 4).tolist())
 
 
-result = diagnose(setups, smk.params.simulation, smk.params.fit_settings, settings, base_values, evaluations,
-                  smk.threads, progress)
+result = diagnose(setups, smk.params.simulation, smk.params.fit_settings, settings, base_values, base_intervals,
+                  evaluations, smk.threads, progress)
 bar.close()
 record = result.record()
 record["runtime_s"] = evaluations.earlier_seconds + time.time() - started

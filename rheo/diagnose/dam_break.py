@@ -25,6 +25,7 @@ from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, simplex_search
 
 logger = logging.getLogger(__name__)
+MIN_LAW_STEP = 0.05  # log units: the smallest initial simplex of a refit's law
 
 
 def applicable(candidate: Candidate, setups: list[Setup], law: Law) -> bool:
@@ -104,19 +105,29 @@ class Diagnosis:
         }
 
 
+def law_steps(names: tuple[str, ...], intervals: dict[str, tuple[float, float]], largest: float) -> np.ndarray:
+    """The initial simplex of a refit's law (log units): each parameter's 95 % interval in the base fit, as a
+    half-width in log units, at least ``MIN_LAW_STEP`` and at most ``largest``. The loss may be ten times as sensitive
+    to one parameter as to another; a step far wider than the interval spends a short refit's evaluations on points
+    many times the base loss."""
+    return np.array([np.clip(0.5 * np.log(intervals[n][1] / intervals[n][0]), MIN_LAW_STEP, largest) for n in names])
+
+
 def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings: dict, settings: dict,
-             base_values: dict[str, float], log: EvaluationLog, workers: int,
-             on_evaluation: Callable[[str, np.ndarray, float], None] = lambda *_: None) -> Diagnosis:
-    """Diagnose the fit ``base_values`` (tau_y, K, n) of the ``setups`` (name: (setup.json, masks.npz)), fitted with
-    ``fit_settings`` (its boxes, its fixed flow index) on ``simulation``'s grid. ``settings``: ``candidates`` (names),
-    ``rung_evaluations`` (the law's refit at each rung of a profile), ``refit_evaluations``, ``law_step`` (initial
-    simplex of the law, log units), ``evidence`` (least drop of the criterion)."""
+             base_values: dict[str, float], base_intervals: dict[str, tuple[float, float]], log: EvaluationLog,
+             workers: int, on_evaluation: Callable[[str, np.ndarray, float], None] = lambda *_: None) -> Diagnosis:
+    """Diagnose the fit ``base_values`` (tau_y, K, n; 95 % intervals ``base_intervals``) of the ``setups`` (name:
+    (setup.json, masks.npz)), fitted with ``fit_settings`` (its boxes, its fixed flow index) on ``simulation``'s grid.
+    ``settings``: ``candidates`` (names), ``rung_evaluations`` (the law's refit at each rung of a profile),
+    ``refit_evaluations``, ``law_step`` (largest initial simplex of the law, log units; ``law_steps``), ``evidence``
+    (least drop of the criterion)."""
     records = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:
             records[name] = Setup.from_record(json.load(f), np.load(masks)["masks"])
     law = Law(n=fit_settings.get("flow_index"))
     x_base = np.log([base_values[n] for n in law.names])
+    steps = law_steps(law.names, base_intervals, settings["law_step"])
     law_box = (np.log([fit_settings[n][0] for n in law.names]), np.log([fit_settings[n][1] for n in law.names]))
     candidates = [CANDIDATES[c] for c in settings["candidates"]
                   if applicable(CANDIDATES[c], list(records.values()), law)]
@@ -141,7 +152,7 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
         before = dict(zip(setups, evaluator.map([(f"base|{s}", x_base) for s in setups]), strict=True))
         band = shear_rate_band(list(before.values()))
         found = refits(candidates, lambda c: profile_refit(c, evaluate(c.name), log.best, x_base, law_box,
-                                                           settings["law_step"], settings["rung_evaluations"], band),
+                                                           steps, settings["rung_evaluations"], band),
                        workers)  # a candidate per worker: a small setup's simulation does not wait for a large one
         for r in sorted(found, key=lambda r: r.criterion):
             logger.info("%s: loss %.4g px (base %.4g), criterion %+.2f", r.name, r.loss, base.loss,
@@ -151,8 +162,8 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
             candidate = CANDIDATES[chosen.name]
             low, high = candidate.bounds
             box = (np.r_[law_box[0], low], np.r_[law_box[1], high])
-            steps = np.r_[np.full(len(x_base), 0.5 * settings["law_step"]), 0.5 * candidate.step]
-            simplex_search(evaluate(chosen.name), chosen.x, steps, settings["refit_evaluations"],
+            simplex_search(evaluate(chosen.name), chosen.x, np.r_[0.5 * steps, 0.5 * candidate.step],
+                           settings["refit_evaluations"],
                            f"final {chosen.name}", box=box)
             final = Refit.of(chosen.name, log.best(f"final {chosen.name}"))
             chosen = final if final.loss <= chosen.loss else chosen

@@ -63,7 +63,7 @@ Best = Callable[[str], dict]
 
 
 def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: np.ndarray,
-                  law_box: tuple[np.ndarray, np.ndarray], law_step: float, rung_evaluations: int,
+                  law_box: tuple[np.ndarray, np.ndarray], law_step: float | np.ndarray, rung_evaluations: int,
                   band: tuple[float, float] | None = None) -> Refit:
     """The candidate's best fit along its profile: from the base fit with the effect at its null (or the nearest
     the box allows, so that the refit, a model holding the base one, ends no worse), the effect climbs its rungs of

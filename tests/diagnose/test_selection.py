@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from rheo.diagnose.candidates import CANDIDATES, Law, matched_law
+from rheo.diagnose.dam_break import MIN_LAW_STEP, law_steps
 from rheo.diagnose.selection import Refit, choose, information_criterion, profile_refit
 from rheo.experiments.dam_break import Effects
 from rheo.fit.search import EvaluationLog
@@ -175,3 +176,9 @@ def test_candidates_at_their_null_values_give_back_the_base_law_and_effects():
     assert tilted.gravity_tilt == pytest.approx(math.radians(5.0))
     thinning, _ = Law(1.0, CANDIDATES["shear_thinning"]).unpack(np.r_[x, math.log(0.5)])
     assert thinning["n"] == pytest.approx(0.5)
+
+
+def test_a_refits_first_simplex_is_as_wide_as_the_base_fits_interval():
+    intervals = {"tau_y": (19.5, 20.5), "K": (2.0, 2.0 * math.exp(0.2)), "n": (0.2, 5.0)}
+    steps = law_steps(("tau_y", "K", "n"), intervals, 0.3)
+    assert steps == pytest.approx([MIN_LAW_STEP, 0.1, 0.3])  # at least 0.05 (a 2.5 % half-width), 0.1, at most the largest
