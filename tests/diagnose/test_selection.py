@@ -181,4 +181,4 @@ def test_candidates_at_their_null_values_give_back_the_base_law_and_effects():
 def test_a_refits_first_simplex_is_as_wide_as_the_base_fits_interval():
     intervals = {"tau_y": (19.5, 20.5), "K": (2.0, 2.0 * math.exp(0.2)), "n": (0.2, 5.0)}
     steps = law_steps(("tau_y", "K", "n"), intervals, 0.3)
-    assert steps == pytest.approx([MIN_LAW_STEP, 0.1, 0.3])  # at least 0.05 (a 2.5 % half-width), 0.1, at most the largest
+    assert steps == pytest.approx([MIN_LAW_STEP, 0.1, 0.3])  # the least (for 2.5 %), 0.1, the largest
