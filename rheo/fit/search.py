@@ -5,8 +5,10 @@ over every view and frame: deterministic (every pixel, no random rays) and infor
 where overlap losses are flat. Its minimiser is searched in three steps: a quasi-random survey of a wide box of
 log-parameters, short Nelder-Mead searches from the survey's best few points (two materials may fit nearly equally
 well in different basins, and the survey's best need not lie in the better one), then the surface of the loss around
-the best point found (``rheo.fit.surface``), whose lowest point is the estimate and whose region within the
-tolerance gives the intervals. Gradient descent on the rendering loss stalled in the curved, nearly flat valley
+the best point found (``rheo.fit.surface``), whose region within the tolerance gives the intervals. The estimate is
+the lowest loss evaluated, the surface's lowest point included (on the virtual cup and squirt the surface's lowest
+point lost 3 % more than the best material evaluated, whose mu (cup) and eta (squirt) lay nearer the truth: -25 %
+against -32 %, -13 % against +38 %). Gradient descent on the rendering loss stalled in the curved, nearly flat valley
 between soft-and-strong and stiff-and-weak materials; the survey finds the right valley, and neither the simplex nor
 the surface needs a gradient of a loss that pixel edges make rough.
 
@@ -216,9 +218,9 @@ def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: S
              guess: np.ndarray | None = None, side_by_side: bool = False,
              evaluate_estimate: Callable[[np.ndarray], float] | None = None) -> Estimate:
     """Nelder-Mead from each of ``starts`` (``evaluations`` shared among them, inside ``box``), then the surface of
-    the loss around the best point found (``rheo.fit.surface.refine``): its lowest point is the estimate (the best
-    evaluated where that is better by more than the tolerance) and its region within the tolerance gives the
-    intervals, grown to the evaluated materials within it. ``seen()`` gives every point evaluated so far and its loss
+    the loss around the best point found (``rheo.fit.surface.refine``): its lowest point, or the best evaluated where
+    that is lower, is the estimate, and its region within the tolerance gives the intervals, grown to the evaluated
+    materials within it. ``seen()`` gives every point evaluated so far and its loss
     (``EvaluationLog.seen``); ``evaluate_estimate`` evaluates the estimate (by default as phase "estimate").
 
     With a ``guess``, parameters the recordings do not determine and whose guess lies inside their interval (or
@@ -355,9 +357,9 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
     y, loss = refinement.x, evaluate_estimate(embed(refinement.x))
     points, losses = seen_here()
     best = int(np.argmin(losses))
-    if loss > (1.0 + tolerance) * losses[best]:
-        logger.warning("the surface's lowest point loses %.5g, more than the tolerance above the best evaluated "
-                       "(%.5g): the best evaluated is the estimate", loss, losses[best])
+    if loss > losses[best]:
+        logger.info("the surface's lowest point loses %.5g, more than the best evaluated (%.5g): that is the estimate",
+                    loss, losses[best])
         y, loss = points[best], float(losses[best])
     extents, open_ends = refinement.surface.extents(tolerance, refinement.reach, y)
     extents = np.column_stack([np.clip(extents[:, 0], inner[0], y), np.clip(extents[:, 1], y, inner[1])])
