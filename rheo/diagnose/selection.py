@@ -74,36 +74,53 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
     the valley turns: a sliding floor first lowers the yield stress that held the material back, then, once the
     material slides, needs it back). An effect that changes what the law's parameters mean (shear thinning) also
     starts from the law matched to the last rung's (``Candidate.rung_start``, over the base flow's shear-rate
-    ``band``). A branch stops climbing once a rung's loss exceeds the best so far by ``STOP_RISE``."""
+    ``band``). A branch stops climbing once a rung's loss exceeds the best so far by ``STOP_RISE``; then a rung
+    halfway (on the search coordinate) between the branch's best and the next one out is refitted too, started
+    from both their laws."""
     phase = f"refit {candidate.name}"
+
+    def refit_at(rung: float, starts: list[np.ndarray]) -> tuple[float, np.ndarray]:
+        """The lowest loss and its law with the effect at ``rung``: the best of ``starts``, then a short search."""
+        found: list[tuple[float, np.ndarray]] = []
+
+        def at_rung(y: np.ndarray, _: str) -> float:
+            loss = evaluate(np.r_[y, rung], phase)
+            found.append((loss, np.asarray(y)))
+            return loss
+
+        start = min((np.clip(x, *law_box) for x in starts), key=lambda x: at_rung(x, phase))
+        simplex_search(at_rung, start, law_step, rung_evaluations, phase, box=law_box)
+        return min(found, key=lambda f: f[0])
+
+    def matched_start(fitted: tuple[float, np.ndarray, float], rung: float) -> list[np.ndarray]:
+        """The law ``Candidate.rung_start`` gives at ``rung`` from a fitted rung (coordinate, law, loss), if any."""
+        law = candidate.rung_start(fitted[1], candidate.value(fitted[0]), candidate.value(rung), band)
+        return [] if law is None else [law]
+
     null = candidate.nearest_null
     lowest = evaluate(np.r_[base_x, null], phase)
     profile = [(candidate.value(null), lowest)]
     for branch in candidate.rungs:
-        path = [(null, base_x)]
+        path = [(null, base_x, lowest)]
         for value in branch:
             rung = candidate.coordinate(value)
             starts = [path[-1][1]]
             if len(path) > 1:
-                (c0, x0), (c1, x1) = path[-2:]
+                (c0, x0, _), (c1, x1, _) = path[-2:]
                 starts = [x1 + (x1 - x0) * (rung - c1) / (c1 - c0), x1, base_x]
-            matched = candidate.rung_start(path[-1][1], candidate.value(path[-1][0]), value, band)
-            if matched is not None:
-                starts.append(matched)
-            found: list[tuple[float, np.ndarray]] = []
-
-            def at_rung(y: np.ndarray, _: str, rung: float = rung, found: list = found) -> float:
-                loss = evaluate(np.r_[y, rung], phase)
-                found.append((loss, np.asarray(y)))
-                return loss
-
-            start = min((np.clip(x, *law_box) for x in starts), key=lambda x: at_rung(x, phase))
-            simplex_search(at_rung, start, law_step, rung_evaluations, phase, box=law_box)
-            loss, law = min(found, key=lambda f: f[0])
-            path.append((rung, law))
+            loss, law = refit_at(rung, starts + matched_start(path[-1], rung))
+            path.append((rung, law, loss))
             profile.append((value, loss))
             if loss > STOP_RISE * lowest:
                 break
+            lowest = min(lowest, loss)
+        # the rungs are a factor 3 apart: between the branch's best and the next one out, which lost more
+        k = min(range(len(path)), key=lambda i: path[i][2])
+        if k + 1 < len(path):
+            (c0, x0, _), (c1, x1, _) = path[k:k + 2]
+            middle = 0.5 * (c0 + c1)
+            loss, _ = refit_at(middle, [x0, x1, *matched_start(path[k], middle)])
+            profile.append((candidate.value(middle), loss))
             lowest = min(lowest, loss)
     return dataclasses.replace(Refit.of(candidate.name, best(phase)), profile=tuple(sorted(profile)))
 
