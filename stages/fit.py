@@ -107,7 +107,8 @@ with Evaluator(objectives, workers=smk.threads) as evaluator:
     else:
         warm = read_json(smk.input.warmup)
         v0 = np.asarray(warm["v0"])
-        surveyed = sorted((row for row in warm["history"] if row["phase"] == warm["survey"]),
+        chosen = warm.get("survey", "survey")  # (a warm-up before the survey from rest had one survey)
+        surveyed = sorted((row for row in warm["history"] if row["phase"] == chosen),
                           key=lambda row: row["loss"])
         starts = [np.log([row[n] for n in names]) for row in surveyed[:settings["full"]["starts"]]]
 
