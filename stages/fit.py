@@ -2,8 +2,9 @@
 a wide box of log-parameters on the first frames, each material with the velocity stage's initial velocity and at
 rest, and then refines the initial velocity at the survey's best material and velocity;
 then simplex searches on every frame from the survey's best few points, rounds of a composite design around the best
-point found, each followed by a quadratic fitted to the squared losses (rheo.fit.surface): its lowest point is the
-estimate and the region where it stays within the tolerance gives the intervals. Parameters the recording does not
+point found, each followed by a quadratic fitted to the squared losses (rheo.fit.surface): its lowest point, or the
+best material evaluated where that loses less, is the estimate, and the region where it stays within the tolerance
+gives the intervals. Parameters the recording does not
 determine are held at their initial guess and the others searched again (a simplex, then their surface). Evaluations
 run on the stage's threads side by side, and every one is stored, so an interrupted fit replays them and goes on.
 The full phase writes params.json and history.csv."""
