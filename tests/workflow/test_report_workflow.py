@@ -22,7 +22,8 @@ def test_tiny_report_end_to_end(workflow):
     with open(root / "fit/history.csv") as f:
         history = list(csv.DictReader(f))
     phases = [h["phase"] for h in history]
-    assert phases[:9] == ["survey"] * 8 + ["velocity"]  # 8 survey points, then the initial velocity
+    # 8 survey points with the velocity stage's initial velocity, the same at rest, then the initial velocity
+    assert phases[:17] == ["survey"] * 8 + ["survey, from rest"] * 8 + ["velocity"]
     assert phases.index("start 1") < phases.index("surface")
     assert {"loss", "best_loss", "mu", "tau_y", "vx"} <= set(history[0])
     held = [n for n, p in params["parameters"].items() if p["held_at_initial_guess"]]
