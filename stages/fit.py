@@ -4,10 +4,9 @@ rest, and then refines the initial velocity at the survey's best material and ve
 then simplex searches on every frame from the survey's best few points, rounds of a composite design around the best
 point found, each followed by a quadratic fitted to the squared losses (rheo.fit.surface): its lowest point, or the
 best material evaluated where that loses less, is the estimate, and the region where it stays within the tolerance
-gives the intervals. Parameters the recording does not
-determine are held at their initial guess and the others searched again (a simplex, then their surface). Evaluations
-run on the stage's threads side by side, and every one is stored, so an interrupted fit replays them and goes on.
-The full phase writes params.json and history.csv."""
+gives the intervals. Parameters the recording does not determine are held at their initial guess and the others
+searched again (a simplex, then their surface). Evaluations run on the stage's threads side by side, and every one
+is stored, so an interrupted fit replays them and goes on. The full phase writes params.json and history.csv."""
 
 import csv
 from functools import partial
@@ -17,7 +16,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from rheo.experiments.scene import material
-from rheo.fit.inverse import PARAMETERS, initial_guess, log_values, silhouette_objectives
+from rheo.fit.inverse import PARAMETERS, initial_guess, log_values, silhouette_objectives, survey_velocities
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, estimate, simplex_search, start_step, survey_points
 from rheo.io import read_json, write_atomic, write_json_atomic
@@ -31,15 +30,6 @@ warmup = phase_name == "warmup"
 names = PARAMETERS[exp["material"]["convention"]]
 count = len(names)
 VELOCITY_STEP = 0.05  # m/s, the initial simplex of the velocity refinement
-
-
-def survey_velocities(estimate: np.ndarray) -> list[tuple[str, np.ndarray]]:
-    """The initial velocities the survey tries every material with: the velocity stage's estimate and a release
-    from rest. The estimate was made with the material at its guess, whose different collapse it partly absorbs,
-    and from one view the motion along the line of sight goes unseen (the virtual single-view cup, released from
-    rest: estimated 0.19 m/s along it)."""
-    return [("survey", estimate)] + ([("survey, from rest", np.zeros(3))] if np.any(estimate) else [])
-
 
 initial = initial_guess(exp)
 guess = log_values(initial, names).numpy()

@@ -147,9 +147,11 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
 
             return lambda x, phase: log.evaluate_many(joint, [x], phase)[0]
 
-        evaluate("base")(x_base, "base")
-        base = Refit.of("base", log.record("base", x_base))
+        # the base fit, simulated once: its comparisons (silhouettes, shear rates) and its stored record
         before = dict(zip(setups, evaluator.map([(f"base|{s}", x_base) for s in setups]), strict=True))
+        on_evaluation("base", x_base, log.evaluate_many(lambda _: [summary(list(before.values()))], [x_base],
+                                                        "base")[0])
+        base = Refit.of("base", log.record("base", x_base))
         band = shear_rate_band(list(before.values()))
         found = refits(candidates, lambda c: profile_refit(c, evaluate(c.name), log.best, x_base, law_box,
                                                            steps, settings["rung_evaluations"], band),
@@ -163,8 +165,7 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
             low, high = candidate.bounds
             box = (np.r_[law_box[0], low], np.r_[law_box[1], high])
             simplex_search(evaluate(chosen.name), chosen.x, np.r_[0.5 * steps, 0.5 * candidate.step],
-                           settings["refit_evaluations"],
-                           f"final {chosen.name}", box=box)
+                           settings["refit_evaluations"], f"final {chosen.name}", box=box)
             final = Refit.of(chosen.name, log.best(f"final {chosen.name}"))
             chosen = final if final.loss <= chosen.loss else chosen
         after = before if chosen is None else dict(zip(setups, evaluator.map(

@@ -18,6 +18,7 @@ stored values and goes on from where it stopped.
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import threading
@@ -220,8 +221,8 @@ def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: S
     """Nelder-Mead from each of ``starts`` (``evaluations`` shared among them, inside ``box``), then the surface of
     the loss around the best point found (``rheo.fit.surface.refine``): its lowest point, or the best evaluated where
     that is lower, is the estimate, and its region within the tolerance gives the intervals, grown to the evaluated
-    materials within it. ``seen()`` gives every point evaluated so far and its loss
-    (``EvaluationLog.seen``); ``evaluate_estimate`` evaluates the estimate (by default as phase "estimate").
+    materials within it. ``seen()`` gives every point evaluated so far and its loss (``EvaluationLog.seen``);
+    ``evaluate_estimate`` evaluates the estimate (by default as phase "estimate").
 
     With a ``guess``, parameters the recordings do not determine and whose guess lies inside their interval (or
     beyond an open end) are held at the guess and the others searched again (a simplex, then their surface), unless
@@ -335,8 +336,7 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
     free = list(free)
     held = [i for i in range(len(centre)) if i not in free]
 
-    def embed(y: np.ndarray) -> np.ndarray:
-        return _embed(centre, free, y)
+    embed = functools.partial(_embed, centre, free)
 
     def seen_here() -> tuple[np.ndarray, np.ndarray]:
         points, losses = seen()
