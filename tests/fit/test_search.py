@@ -272,3 +272,27 @@ def test_interval_ends_walk_out_to_where_the_loss_itself_leaves_the_tolerance(tm
     c = result.intervals["c"]
     assert np.log([c.low, c.high]) - target[2] == pytest.approx([-1.5, 1.5], abs=0.25 / 4)  # a step, halved twice
     assert c.open == (False, False)
+
+
+def test_interval_ends_walk_along_the_valley_where_two_parameters_trade(tmp_path):
+    """a and b trade against each other (the loss depends on a - b steeply, on a + b only within 1.5 log units of
+    the optimum, and there little): the region within the tolerance reaches a and b +- 1.5 / sqrt(2) = 1.06 along the
+    valley's floor. Walked along their axes, with the other held at the estimate, the ends stop at once (+-0.33)."""
+    target = np.log([1000.0, 1000.0, 50.0])
+
+    def losses(points):
+        values = []
+        for x in points:
+            d = x - target
+            across, along = (d[0] - d[1]) / np.sqrt(2), (d[0] + d[1]) / np.sqrt(2)
+            floor = min(along**2, 0.15) if abs(along) < 1.5 else 10.0
+            values.append(float(FLOOR * np.sqrt(1.0 + 30.0 * (across**2 + d[2] ** 2) + floor)))
+        return values
+
+    log = EvaluationLog(tmp_path / "evaluations.json", "key", one_objective=True)
+    result = estimate(lambda points, phase: log.evaluate_many(losses, points, phase), [target + 0.05], ["a", "b", "c"],
+                      seen=log.seen, evaluations=100, start_step=0.1, half_width=0.25, rounds=3, tolerance=0.1,
+                      box=(target - 5.0, target + 5.0))
+    for i, name in enumerate("ab"):
+        interval = result.intervals[name]
+        assert np.log([interval.low, interval.high]) - target[i] == pytest.approx([-1.06, 1.06], abs=0.15)
