@@ -296,10 +296,10 @@ def profile_directions(hessian: np.ndarray) -> np.ndarray:
 
 def walk_ends(evaluate_many: Callable[[list[np.ndarray]], list[float]], estimate: np.ndarray, extents: np.ndarray,
               open_ends: np.ndarray, box: tuple[np.ndarray, np.ndarray], step: float, level: float,
-              directions: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+              directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The intervals' ends (coordinates, 2) checked on the loss itself: from each, along its line through the
     ``estimate`` (row i of ``directions``, scaled to move coordinate i: the surface's valley floor, where the other
-    parameters trade against it; by default its axis), a point ``step`` further out is evaluated, and the next
+    parameters trade against it), a point ``step`` further out is evaluated, and the next
     while the loss stays within ``level`` (``END_STEPS`` at most, not past ``box``); an end moves to the farthest
     point within the level, open where the walk ran out of steps or reached the box. A closed end is then placed
     between its last point within the level and the first beyond by ``END_HALVINGS`` bisections. A quadratic surface
@@ -308,7 +308,6 @@ def walk_ends(evaluate_many: Callable[[list[np.ndarray]], list[float]], estimate
     at once (the cup's shear modulus, traded against lambda: the axis ended at mu 961, the valley at the truth's
     1000 loses 0.1 % more than the estimate)."""
     extents, open_ends = extents.copy(), open_ends.copy()
-    directions = np.eye(len(estimate)) if directions is None else directions
     beyond = np.full(extents.shape, np.nan)  # the first point out along each closed end's line past the level
 
     def probe_all(ends: list[tuple[int, int]], coordinates: list[float]) -> list[bool]:
