@@ -42,7 +42,8 @@ logger = logging.getLogger(__name__)
 # the surface stops moving where it promises a loss lower by less than this fraction of the tolerance: a valley flat
 # at that scale cannot place the estimate along it, and walking on would follow the loss's roughness
 FLAT = 0.25
-# each interval end is walked outward along its axis, a design half-width a step, at most this many steps
+# each interval end is walked outward along the surface's valley floor, a design half-width a step, at most this many
+# steps
 END_STEPS = 8
 # then a closed end is placed to within 1 / 2**END_HALVINGS of a step by bisection
 END_HALVINGS = 2

@@ -150,8 +150,8 @@ def render(name: str, params: dict, sections: list[tuple[str, str]], config: dic
     body.append(f"<p>Intervals: each parameter's range over the materials whose loss lies within "
                 f"{params['tolerance']:.0%} of the best fit's (the fit model's own error), from the surface fitted to "
                 "the loss around the estimate, trade-offs between parameters included, each end then walked out "
-                "along its axis on the loss itself; &lt; or &gt; marks an end where that region goes on past the "
-                "evaluations' reach.</p>")
+                "on the loss itself along the surface's valley floor (the other parameters following); &lt; or "
+                "&gt; marks an end where that region goes on past the evaluations' reach.</p>")
     if undetermined:
         body.append("<p>Not determined by this recording: " + ", ".join(undetermined) + " (the interval spans more "
                     "than a factor 4 or has an open end: the loss barely changes along it). Those whose initial guess "
