@@ -3,8 +3,8 @@ its setups jointly, or one), with the first frame's time after the release found
 box, simplex searches from its best points side by side, then rounds of a composite design around the best, each
 followed by a quadratic fitted to the squared losses (rheo.fit.surface): its lowest point, or the best law
 evaluated where that loses less, is the estimate, and the region where it stays within the tolerance gives the
-intervals. Each evaluation simulates the setups side by side,
-the survey's and the designs' points two at a time. Every evaluation is stored, so an interrupted fit resumes."""
+intervals. Each evaluation simulates the setups side by side, the survey's and the designs' points two at a time.
+Every evaluation is stored, so an interrupted fit resumes."""
 
 import csv
 import time

@@ -281,28 +281,14 @@ def _inside(interval: Interval, value: float) -> bool:
                                         and (value <= interval.high or interval.open[1]))
 
 
-def profile_directions(hessian: np.ndarray) -> np.ndarray:
-    """Row i: how the other coordinates follow coordinate i along the floor of the quadratic with this Hessian
-    (their minimiser given x_i moves by d_i times row i; row i's own entry is 1). Where the others' curvature is not
-    positive definite the row is the axis."""
-    k = len(hessian)
-    rows = np.eye(k)
-    for i in range(k):
-        others = [j for j in range(k) if j != i]
-        block = hessian[np.ix_(others, others)]
-        if others and np.linalg.eigvalsh(block)[0] > 0:
-            rows[i, others] = -np.linalg.solve(block, hessian[others, i])
-    return rows
-
-
 def walk_ends(evaluate_many: Callable[[list[np.ndarray]], list[float]], estimate: np.ndarray, extents: np.ndarray,
               open_ends: np.ndarray, box: tuple[np.ndarray, np.ndarray], step: float, level: float,
               directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The intervals' ends (coordinates, 2) checked on the loss itself: from each, along its line through the
     ``estimate`` (row i of ``directions``, scaled to move coordinate i: the surface's valley floor, where the other
-    parameters trade against it), a point ``step`` further out is evaluated, and the next
-    while the loss stays within ``level`` (``END_STEPS`` at most, not past ``box``); an end moves to the farthest
-    point within the level, open where the walk ran out of steps or reached the box. A closed end is then placed
+    parameters trade against it), a point ``step`` further out is evaluated, and the next while the loss stays
+    within ``level`` (``END_STEPS`` at most, not past ``box``); an end moves to the farthest point within the
+    level, open where the walk ran out of steps or reached the box. A closed end is then placed
     between its last point within the level and the first beyond by ``END_HALVINGS`` bisections. A quadratic surface
     misjudges a valley that flattens on one side (a viscosity too low to show): its ends fall short where the loss
     itself stays low. Along the axis, with the others held at the estimate, a walk leaves the valley of a trade-off
@@ -381,7 +367,7 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
     extents = np.column_stack([np.clip(extents[:, 0], inner[0], y), np.clip(extents[:, 1], y, inner[1])])
     extents, open_ends = walk_ends(lambda ys: evaluate_many([embed(v) for v in ys], phase), y, extents, open_ends,
                                    inner, refinement.half_width, (1.0 + tolerance) * min(loss, float(losses.min())),
-                                   profile_directions(refinement.surface.hessian))
+                                   refinement.surface.valley_floor())
     points, losses = seen_here()
     free_names = [names[i] for i in free]
     if open_ends.any():

@@ -65,6 +65,19 @@ class Quadratic:
             low, high = (middle, high) if np.linalg.norm(step(middle)) > radius else (low, middle)
         return self.centre + step(high)
 
+    def valley_floor(self) -> np.ndarray:
+        """Row i: how the other coordinates follow coordinate i along q's floor (their minimiser given x_i moves by
+        d_i times row i; row i's own entry is 1): the line on which the tolerance region's extreme along axis i
+        lies. Where the others' curvature is not positive definite the row is the axis."""
+        k = len(self.hessian)
+        rows = np.eye(k)
+        for i in range(k):
+            others = [j for j in range(k) if j != i]
+            block = self.hessian[np.ix_(others, others)]
+            if others and np.linalg.eigvalsh(block)[0] > 0:
+                rows[i, others] = -np.linalg.solve(block, self.hessian[others, i])
+        return rows
+
     def extents(self, tolerance: float, reach: float, estimate: np.ndarray,
                 samples: int = 100000) -> tuple[np.ndarray, np.ndarray]:
         """For q a squared loss fitted within ``reach`` of its centre: each coordinate's range (coordinates, 2) over
