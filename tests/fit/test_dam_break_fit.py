@@ -5,7 +5,16 @@ import numpy as np
 import pytest
 
 from rheo.experiments.dam_break import dam_break_scene
-from rheo.fit.dam_break import OFFSET_STEP, DamBreakTarget, shear_rates, skin
+from rheo.fit.dam_break import (
+    OFFSET_STEP,
+    DamBreakTarget,
+    flow_index_starts,
+    from_stress_split,
+    shear_rates,
+    skin,
+    stress_split,
+)
+from rheo.fit.search import simplex_search
 from rheo.render.silhouette import boundary_distance, distance_to
 
 
@@ -43,3 +52,40 @@ def test_the_first_frames_offset_is_found_on_silhouettes_of_a_known_rollout(chan
     assert result.offset == pytest.approx(offset_steps * OFFSET_STEP) and result.loss == 0.0
     assert np.all(result.outflow_iou[1:] == 1.0) and np.all(result.shear_rates > 0.1)
     assert target.compare(tau_y=50.0, K=0.5, n=0.8).loss > 0.05  # a stronger material flows less
+
+
+def test_the_stress_split_is_the_stress_at_the_rate_and_the_yield_stress_share_and_inverts():
+    rng = np.random.default_rng(3)
+    for x in np.log(rng.uniform([0.1, 0.1, 0.2], [300.0, 300.0, 2.0], (20, 3))):
+        tau_y, K, n = np.exp(x)
+        log_stress, logit_share = stress_split(x, 7.0)
+        assert np.exp(log_stress) == pytest.approx(tau_y + K * 7.0 ** n)
+        assert 1.0 / (1.0 + np.exp(-logit_share)) == pytest.approx(tau_y / (tau_y + K * 7.0 ** n))
+        assert np.allclose(from_stress_split(np.array([log_stress, logit_share]), n, 7.0), x)
+
+
+def test_flow_index_searches_find_the_deeper_basin_along_the_valley_of_equal_stress():
+    rate, box = 10.0, (np.log([0.1, 0.1, 0.1]), np.log([300.0, 300.0, 2.0]))
+
+    def loss(x):  # steep across the laws of stress 20 Pa at the rate; along them, a shallow and a deeper basin
+        log_stress, logit_share = stress_split(x, rate)
+        shallow = 0.030 + (x[2] - np.log(0.55)) ** 2 + 0.01 * (logit_share + 1.1) ** 2
+        deep = 0.0275 + x[2] ** 2 + 0.01 * (logit_share - 0.75) ** 2
+        return min(shallow, deep) + 0.5 * (log_stress - np.log(20.0)) ** 2
+
+    def evaluate_many(points, phase):
+        phases.append(phase)
+        return [loss(x) for x in points]
+
+    phases = []
+    survey_best = np.log([5.5, 5.5, 0.45])  # in the shallow basin
+    x, value = simplex_search(lambda x, phase: loss(x), survey_best, 0.26, 48, "start", box=box)
+    assert value > 0.0299  # a search of all three from it stays there
+    found = flow_index_starts(evaluate_many, survey_best, [0.4, 0.7, 1.0, 1.4], rate, 20, 0.26, box)
+    assert [np.exp(x[2]) for x, _ in found] == pytest.approx([0.4, 0.7, 1.0, 1.4])
+    (x, value), = [f for f in found if np.exp(f[0][2]) == pytest.approx(1.0)]
+    assert value < 0.0285 and min(v for _, v in found) == value
+    tau_y, K, _ = np.exp(x)
+    stress = tau_y + K * rate
+    assert stress == pytest.approx(20.0, rel=0.05) and tau_y / stress == pytest.approx(0.68, abs=0.1)
+    assert sorted(set(phases)) == ["n 0.4", "n 0.7", "n 1", "n 1.4"] and len(phases) <= 4 * 20

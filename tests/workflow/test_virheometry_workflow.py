@@ -1,13 +1,15 @@
 """The real dam-break rules in a scratch copy of the workflow: one setup imported, one setup fitted with a small
 search, and the summary's plan over all twelve materials."""
 
+import csv
 import json
 
 
 def test_a_setup_is_imported_and_fitted(workflow):
     (workflow.root / "quick.yaml").write_text(
         "virheometry:\n  simulation: {cells_per_height: 4, cells_across: 4, max_offset: 0.05}\n"
-        "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1}\n")
+        "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1, flow_index_searches: [1.0],\n"
+        "        flow_index_evaluations: 2}\n")
     run = workflow.run("results/virheometry/Carbonara/fit_setup2/params.json", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
     setup = json.loads((workflow.root / "results/virheometry/setups/ref_Carbonara_2.0_2.5_2/setup.json").read_text())
@@ -26,6 +28,9 @@ def test_a_setup_is_imported_and_fitted(workflow):
     assert name == "ref_Carbonara_2.0_2.5_2" and len(result["silhouette_iou"]) == 8
     assert 0.0 <= result["first_frame_after_release_s"] <= 0.05
     assert (workflow.root / "results/virheometry/Carbonara/fit_setup2/frames.png").stat().st_size > 0
+    with open(workflow.root / "results/virheometry/Carbonara/fit_setup2/history.csv") as f:
+        phases = {row["phase"] for row in csv.DictReader(f)}
+    assert {"survey", "n 1"} <= phases  # the search of tau_y and K at the flow index asked for ran
     assert not list((workflow.root / "results/virheometry/Carbonara/fit_setup2").glob("*.evaluations.json"))
 
 
