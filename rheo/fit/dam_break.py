@@ -29,7 +29,7 @@ from rheo.render.silhouette import boundary_distance, distance_to, iou, silhouet
 
 OFFSET_STEP = 1.0 / 240.0  # s
 MOVING_RATE = 0.1  # 1/s: slower particles count as at rest in the shear-rate band
-SHARE_STEP = 0.5  # the flow-index searches' initial step in the logit of the yield stress' share (0.5 -> 0.62)
+SHARE_STEP = 1.0  # the flow-index searches' initial step in the logit of the yield stress' share (0.5 -> 0.73)
 
 
 def skin(camera, points: np.ndarray, spacing: float) -> np.ndarray:
@@ -194,16 +194,18 @@ def flow_index_starts(evaluate_many: EvaluateMany, best: np.ndarray, flow_indice
                       evaluations: int, step: float, box: tuple[np.ndarray, np.ndarray]
                       ) -> list[tuple[np.ndarray, float]]:
     """A search of tau_y and K at each of ``flow_indices`` (phases "n <value>", side by side), each from the law of
-    that index with the stress at ``rate`` and the yield stress' share of it of ``best`` (the survey's best law), in
-    those two coordinates (``stress_split``; Nelder-Mead, initial steps ``step`` and ``SHARE_STEP``, ``evaluations``
-    each, laws clipped to ``box``): each search's best law and its loss.
+    that index with the stress at ``rate`` of ``best`` (the survey's best law) split evenly between yield and viscous
+    stress, in those two coordinates (``stress_split``; Nelder-Mead, initial steps ``step`` and ``SHARE_STEP``,
+    ``evaluations`` each, laws clipped to ``box``): each search's best law and its loss.
 
     A dam break's silhouettes fix the stress at the shear rates of its flow tightly and its split between yield and
     viscous stress and the flow index loosely, so equally good laws lie along a curved valley in (tau_y, K, n), with
-    basins along it that a survey of the box is too coarse to tell apart (Lotion: a survey of 24 laws and searches
-    from its best found n 0.58 at 0.0307 px; the law of n = 1 found here loses 0.0278). Keeping the stress
-    where the survey found it puts every search's start in the valley."""
-    start = stress_split(best, rate)
+    basins along it that a survey of the box is too coarse to tell apart. Keeping the survey's stress puts every
+    search's start in the valley; the even split lets it reach a basin on either side (the survey's best may have
+    an extreme split: Mustard's, a yield stress of 0.2 % of the stress, whose basin loses 0.0176 px, where searches
+    from an even split find 0.016 at n 1 and 1.4; Lotion: searches from the survey's best alone found n 0.58 at
+    0.0307 px, these a law of n = 1 at 0.0278)."""
+    start = np.array([stress_split(best, rate)[0], 0.0])
 
     def search(n: float) -> tuple[np.ndarray, float]:
         def law(z: np.ndarray) -> np.ndarray:
