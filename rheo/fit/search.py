@@ -369,6 +369,11 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
                                    inner, refinement.half_width, (1.0 + tolerance) * min(loss, float(losses.min())),
                                    refinement.surface.valley_floor())
     points, losses = seen_here()
+    best = int(np.argmin(losses))
+    if losses[best] < loss:  # the walk went on down the valley: the material found lowest is the estimate
+        logger.info("walking the interval ends found a material losing %.5g, less than the estimate's %.5g: that is "
+                    "the estimate", losses[best], loss)
+        y, loss = points[best], float(losses[best])
     free_names = [names[i] for i in free]
     if open_ends.any():
         logger.warning("the region within the tolerance goes on past the evaluations at %s: those ends of the "

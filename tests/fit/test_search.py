@@ -137,6 +137,26 @@ def test_the_estimate_never_loses_more_than_the_best_material_evaluated(tmp_path
     assert result.loss == best["loss"] and np.array_equal(result.log_values, best["x"])
 
 
+def test_a_lower_material_found_walking_the_interval_ends_becomes_the_estimate(tmp_path):
+    """A valley that goes on descending past the one design round's reach: walking the interval ends along its
+    floor evaluates materials below the surface's estimate, and the lowest of them is the estimate."""
+    start = np.log([700.0, 60.0])
+
+    def losses(points):
+        return [float(0.1 + 10.0 * (d[0] - d[1]) ** 2 + 0.02 * np.exp(-(d[0] + d[1]))) for d in (points - start)]
+
+    log = EvaluationLog(tmp_path / "evaluations.json", "key", one_objective=True)
+    result = estimate(lambda points, phase: log.evaluate_many(losses, np.array(points), phase), [start], ["a", "b"],
+                      seen=log.seen, evaluations=8, start_step=0.1, half_width=0.1, rounds=1, tolerance=0.1,
+                      box=(start - 3.0, start + 3.0))
+    best = min(log.records, key=lambda r: r["loss"])
+    assert best["phase"] == "surface" and best["loss"] < min(r["loss"] for r in log.records if r["phase"] == "estimate")
+    assert result.loss == best["loss"] and np.array_equal(result.log_values, best["x"])
+    for name, value in zip(["a", "b"], np.exp(best["x"]), strict=True):
+        assert result.intervals[name].low <= value <= result.intervals[name].high
+        assert result.intervals[name].value == pytest.approx(value)
+
+
 def test_a_parameter_the_loss_ignores_is_held_at_its_guess_and_flagged(tmp_path):
     result, target, curvature, log = valley_estimate(tmp_path, ignored=True)
     assert result.held == ["c"]
