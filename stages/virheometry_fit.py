@@ -2,10 +2,10 @@
 its setups jointly, or one), with the first frame's time after the release found for each setup. A survey of the
 box; with the flow index free, searches of tau_y and K at a few flow indices from the survey's best law (each
 keeping its stress at a shear rate typical of the flow); simplex searches from the best points side by side, then
-rounds of a composite design around the best, each
-followed by a quadratic fitted to the squared losses (rheo.fit.surface): its lowest point, or the best law
-evaluated where that loses less, is the estimate, and the region where it stays within the tolerance gives the
-intervals. Each evaluation simulates the setups side by side, the survey's and the designs' points two at a time.
+rounds of a composite design around the best, each followed by a quadratic fitted to the squared losses
+(rheo.fit.surface): its lowest point, or the best law evaluated where that loses less, is the estimate, and the
+region where it stays within the tolerance gives the intervals. Each evaluation simulates the setups side by side,
+the survey's and the designs' points two at a time.
 Every evaluation is stored, so an interrupted fit resumes."""
 
 import csv
@@ -58,16 +58,15 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
             log.info("evaluation %d: loss %.5g px, %s", bar.n, loss, describe(x))
         return losses
 
+    evaluate_many = partial(evaluations.evaluate_many, joint)  # points, phase -> losses, stored
     step = start_step((high - low).min(), settings["samples"], len(names))
     points = survey_points(0.5 * (low + high), 0.5 * (high - low), settings["samples"])
     # in chunks that keep every worker busy, each stored as it ends
     chunk = max(smk.threads, 1)
-    losses = np.concatenate([evaluations.evaluate_many(joint, list(points[i:i + chunk]), "survey")
-                             for i in range(0, len(points), chunk)])
+    losses = np.concatenate([evaluate_many(list(points[i:i + chunk]), "survey") for i in range(0, len(points), chunk)])
     found = [(points[i], losses[i]) for i in np.argsort(losses, kind="stable")[:settings["starts"]]]
     if law.n is None and settings["flow_index_searches"]:
-        found += flow_index_starts(lambda points, phase: evaluations.evaluate_many(joint, points, phase), found[0][0],
-                                   settings["flow_index_searches"], settings["stress_rate"],
+        found += flow_index_starts(evaluate_many, found[0][0], settings["flow_index_searches"], settings["stress_rate"],
                                    settings["flow_index_evaluations"], step, (low, high))
     starts = [x for x, _ in sorted(found, key=lambda f: f[1])[:settings["starts"]]]
 
@@ -83,10 +82,10 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
         return evaluations.evaluate_many(lambda _: [float(np.mean([d.loss for d in simulated[tuple(x)].values()]))],
                                          [x], "estimate")[0]
 
-    result = estimate(lambda points, phase: evaluations.evaluate_many(joint, points, phase), starts, names,
-                      seen=evaluations.seen, evaluations=settings["evaluations"], start_step=step,
-                      half_width=settings["half_width"], rounds=settings["rounds"], tolerance=settings["tolerance"],
-                      box=(low, high), side_by_side=True, evaluate_estimate=evaluate_estimate)
+    result = estimate(evaluate_many, starts, names, seen=evaluations.seen, evaluations=settings["evaluations"],
+                      start_step=step, half_width=settings["half_width"], rounds=settings["rounds"],
+                      tolerance=settings["tolerance"], box=(low, high), side_by_side=True,
+                      evaluate_estimate=evaluate_estimate)
     x, loss, intervals = result.log_values, result.loss, result.intervals
     log.info("estimate: loss %.5g px, %s", loss, describe(x))
     details = simulated.get(tuple(x)) or simulate(x)

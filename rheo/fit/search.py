@@ -356,24 +356,27 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
     elif not refinement.converged:
         logger.warning("the surface's lowest point still moved after %d rounds: the estimate is the lowest point "
                        "within the last design", refinement.rounds)
-    y, loss = refinement.x, evaluate_estimate(embed(refinement.x))
-    points, losses = seen_here()
-    best = int(np.argmin(losses))
-    if loss > losses[best]:
-        logger.info("the surface's lowest point loses %.5g, more than the best evaluated (%.5g): that is the estimate",
-                    loss, losses[best])
-        y, loss = points[best], float(losses[best])
+
+    def lowest(y: np.ndarray, loss: float, found_by: str) -> tuple[np.ndarray, float]:
+        """``y`` and its ``loss``, or the material evaluated here that loses less (the loss is rough: the estimate is
+        the material that reproduces the recording best)."""
+        points, losses = seen_here()
+        best = int(np.argmin(losses))
+        if losses[best] >= loss:
+            return y, loss
+        logger.info("%s found a material losing %.5g, less than the estimate's %.5g: that is the estimate", found_by,
+                    losses[best], loss)
+        return points[best], float(losses[best])
+
+    y, loss = lowest(refinement.x, evaluate_estimate(embed(refinement.x)), "the searches and designs")
     extents, open_ends = refinement.surface.extents(tolerance, refinement.reach, y)
     extents = np.column_stack([np.clip(extents[:, 0], inner[0], y), np.clip(extents[:, 1], y, inner[1])])
     extents, open_ends = walk_ends(lambda ys: evaluate_many([embed(v) for v in ys], phase), y, extents, open_ends,
-                                   inner, refinement.half_width, (1.0 + tolerance) * min(loss, float(losses.min())),
+                                   inner, refinement.half_width, (1.0 + tolerance) * loss,
                                    refinement.surface.valley_floor())
+    # the walk may go on down the valley
+    y, loss = lowest(y, loss, "walking the interval ends")
     points, losses = seen_here()
-    best = int(np.argmin(losses))
-    if losses[best] < loss:  # the walk went on down the valley: the material found lowest is the estimate
-        logger.info("walking the interval ends found a material losing %.5g, less than the estimate's %.5g: that is "
-                    "the estimate", losses[best], loss)
-        y, loss = points[best], float(losses[best])
     free_names = [names[i] for i in free]
     if open_ends.any():
         logger.warning("the region within the tolerance goes on past the evaluations at %s: those ends of the "
