@@ -149,18 +149,22 @@ def setup_files(records: list[str], masks: list[str]) -> dict[str, tuple[str, st
     return dict(zip(names, zip(records, masks, strict=True), strict=True))
 
 
+def target(setup: Setup, simulation: dict) -> DamBreakTarget:
+    """A setup as a target, simulated with ``simulation``'s grid, particles and elastic constants; its first frame
+    ``min_offset`` (default 0) to ``max_offset`` s after the release, every ``held_out_every``-th frame (if given)
+    held out of the loss."""
+    scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
+                            simulation["particles_per_cell"])
+    return DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]),
+                          simulation.get("min_offset", 0.0), simulation.get("held_out_every"))
+
+
 def targets(setups: dict[str, tuple[str, str]], simulation: dict) -> dict[str, DamBreakTarget]:
-    """Every setup (name: (setup.json, masks.npz) of its import) as a target, simulated with ``simulation``'s grid,
-    particles and elastic constants; its first frame ``min_offset`` (default 0) to ``max_offset`` s after the
-    release, every ``held_out_every``-th frame (if given) held out of the loss."""
+    """Every setup (name: (setup.json, masks.npz) of its import) as a ``target``."""
     out = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:
-            setup = Setup.from_record(json.load(f), np.load(masks)["masks"])
-        scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
-                                simulation["particles_per_cell"])
-        out[name] = DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]),
-                                   simulation.get("min_offset", 0.0), simulation.get("held_out_every"))
+            out[name] = target(Setup.from_record(json.load(f), np.load(masks)["masks"]), simulation)
     return out
 
 
