@@ -60,13 +60,13 @@ def film(scene: dict, index: int, lab: dict, name: str, law: dict[str, float], e
          mu: float, lam: float) -> Setup:
     """The lab's recording of the scene's channel ``index``: ``scene["frames"]`` silhouettes, the first one frame
     interval after the release, simulated at the ``lab``'s resolution (``cells_per_height``, ``cells_across``,
-    ``particles_per_cell``; ``reach``: how far past the gate (m) the simulated floor extends)."""
+    ``particles_per_cell``, ``cfl``; ``reach``: how far past the gate (m) the simulated floor extends)."""
     setup = channel(scene, index, name)
     if not setup.camera.pixels(setup.cuboid_corners())[1].all():
         raise ValueError(f"concealed scene, setup {index}: the material ({setup.height:g} x {setup.width:g} m) "
                          "leaves the camera's view")
     lab_scene = dam_break_scene(setup, lab["cells_per_height"], lab["cells_across"], lab["particles_per_cell"],
-                                reach=lab["reach"])
+                                reach=lab["reach"], cfl=lab["cfl"])
     material = HerschelBulkley(**law, mu=mu, lam=lam, density=setup.density)
     dt = 1.0 / setup.fps
     trajectory = lab_scene.rollout(material, scene["frames"] * dt, dt, effects)

@@ -84,7 +84,8 @@ def runout(setup: Setup, rim: int = CONTAINER_RIM) -> float:
 class DamBreakScene:
     """The simulated dam break: a cube of ``domain_size`` from ``domain_origin`` on ``resolution`` cells per axis,
     the floor and the setup's walls as colliders, ``particles_per_cell`` particles per cell and axis; the half of
-    the material before ``mid_plane`` is simulated when one is given."""
+    the material before ``mid_plane`` is simulated when one is given. Time steps are ``cfl`` times the time a wave
+    (elastic, plus the fastest flow) takes to cross a cell."""
 
     setup: Setup
     domain_size: float
@@ -92,6 +93,7 @@ class DamBreakScene:
     resolution: int
     particles_per_cell: int
     mid_plane: float | None = None  # z of the plane of symmetry when the half before it is simulated
+    cfl: float = 0.4
 
     @property
     def dx(self) -> float:
@@ -146,7 +148,7 @@ class DamBreakScene:
             material = dataclasses.replace(material, density=material.density * effects.density_factor)
         return Simulator(material, resolution=self.resolution, domain_size=self.domain_size,
                          domain_origin=self.domain_origin, colliders=self.colliders(effects), gravity=gravity,
-                         symmetry_z=self.mid_plane, physics=effects.physics)
+                         symmetry_z=self.mid_plane, physics=effects.physics, cfl=self.cfl)
 
     @cached_property
     def initial_positions(self) -> np.ndarray:
@@ -198,7 +200,7 @@ def mid_plane(setup: Setup) -> float | None:
 
 
 def dam_break_scene(setup: Setup, cells_per_height: int = 8, cells_across: int = 10, particles_per_cell: int = 2,
-                    margin: float = 0.25, reach: float | None = None) -> DamBreakScene:
+                    margin: float = 0.25, reach: float | None = None, cfl: float = 0.4) -> DamBreakScene:
     """The scene of ``setup`` on cells of at most H / ``cells_per_height`` and at most the channel's depth /
     ``cells_across``: a cube holding the channel and the material that leaves it, the ``runout`` past the gate and
     as far to either side (grown by ``margin``), above ``kernels.BOUND`` boundary cells on every face and one more
@@ -220,4 +222,4 @@ def dam_break_scene(setup: Setup, cells_per_height: int = 8, cells_across: int =
     resolution = int(np.ceil(extent / dx)) + 2 * kernels.BOUND + 1
     origin = (-(kernels.BOUND + 1) * dx, -(kernels.BOUND + 1) * dx,
               -round((0.5 * resolution * dx - 0.5 * (low[1] + high[1])) / dx) * dx)
-    return DamBreakScene(setup, resolution * dx, origin, resolution, particles_per_cell, middle)
+    return DamBreakScene(setup, resolution * dx, origin, resolution, particles_per_cell, middle, cfl)

@@ -154,7 +154,7 @@ def target(setup: Setup, simulation: dict) -> DamBreakTarget:
     ``min_offset`` (default 0) to ``max_offset`` s after the release, every ``held_out_every``-th frame (if given)
     held out of the loss."""
     scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
-                            simulation["particles_per_cell"])
+                            simulation["particles_per_cell"], cfl=simulation.get("cfl", 0.4))
     return DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]),
                           simulation.get("min_offset", 0.0), simulation.get("held_out_every"))
 
@@ -205,10 +205,10 @@ def flow_index_starts(evaluate_many: EvaluateMany, best: np.ndarray, flow_indice
     A dam break's silhouettes fix the stress at the shear rates of its flow tightly and its split between yield and
     viscous stress and the flow index loosely, so equally good laws lie along a curved valley in (tau_y, K, n), with
     basins along it that a survey of the box is too coarse to tell apart. Keeping the survey's stress puts every
-    search's start in the valley; the even split lets it reach a basin on either side (the survey's best may have
-    an extreme split: Mustard's, a yield stress of 0.2 % of the stress, whose basin loses 0.0176 px, where searches
-    from an even split find 0.016 at n 1 and 1.4; Lotion: searches from the survey's best alone found n 0.58 at
-    0.0307 px, these 0.0281 at n 1 and 0.0260 at n 1.4)."""
+    search's start in the valley; the even split lets it reach a basin on either side (on a grid of 8 x 10 cells,
+    the survey's best may have an extreme split: Mustard's, a yield stress of 0.2 % of the stress, whose basin
+    loses 0.0176 px, where searches from an even split find 0.016 at n 1 and 1.4; Lotion: searches from the
+    survey's best alone found n 0.58 at 0.0307 px, these 0.0281 at n 1 and 0.0260 at n 1.4)."""
     start = np.array([stress_split(best, rate)[0], 0.0])
 
     def search(n: float) -> tuple[np.ndarray, float]:

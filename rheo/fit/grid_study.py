@@ -1,12 +1,15 @@
-"""How the grid moves a dam break: Herschel-Bulkley laws simulated against a material's recordings on grids of
-several resolutions, and per setup the loss (px), the material past the gate in the last frame (px, the recording's
-beside it) and the seconds the simulation took. A law that describes the material should come closer to the
-recording as the grid is refined; where the loss still changes with the grid, so will the law a fit recovers.
+"""How the grid and the time step move a dam break: Herschel-Bulkley laws simulated against a material's recordings
+on grids of several resolutions and at several time steps, and per setup the loss (px), the material past the gate
+in the last frame (px, the recording's beside it) and the seconds the simulation took. A law that describes the
+material should come closer to the recording as the grid is refined; where the loss still changes with the grid or
+the step, so will the law a fit recovers.
 
-    python -m rheo.fit.grid_study --material Lotion --grids 8x10 12x14 16x18 --out results/bench/Lotion_grids.json
+    python -m rheo.fit.grid_study --material Lotion --grids 8x10 12x14 16x18 --cfl 0.4 0.8 \\
+        --out results/bench/Lotion_grids.json
 
 A grid ``CxA`` has at least C cells over the material's height and A across the channel
-(``virheometry.simulation.cells_per_height``, ``cells_across``). The laws: each ``--law tau_y,K,n``; for a
+(``virheometry.simulation.cells_per_height``, ``cells_across``); ``--cfl`` the time steps
+(``virheometry.simulation.cfl``, the configured one by default). The laws: each ``--law tau_y,K,n``; for a
 material with rheometer curves (``virheometry.rheometer``), the Herschel-Bulkley law fitted to all of them (over the
 shear-rate band of the material's fit where there is one); the fit's own estimate where
 results/virheometry/<material>/fit/params.json exists.
@@ -15,6 +18,7 @@ results/virheometry/<material>/fit/params.json exists.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import time
 from pathlib import Path
@@ -36,18 +40,20 @@ def outflow(silhouette: np.ndarray, container: np.ndarray) -> int:
     return int((silhouette & ~container).sum())
 
 
-def study(setups: list[Setup], simulation: dict, laws: dict[str, Law], grids: list[tuple[int, int]]) -> list[dict]:
-    """One row per grid, setup and law: the loss (px), the last frame's outflow (px), simulated and recorded, and the
-    seconds the comparison took."""
+def study(setups: list[Setup], simulation: dict, laws: dict[str, Law], grids: list[tuple[int, int]],
+          cfls: list[float]) -> list[dict]:
+    """One row per grid, time step, setup and law: the loss (px), the last frame's outflow (px), simulated and
+    recorded, and the seconds the comparison took."""
     rows = []
-    with tqdm(total=len(grids) * len(setups) * len(laws), desc="grid study", unit="simulation") as bar:
-        for cells, across in grids:
+    with tqdm(total=len(grids) * len(cfls) * len(setups) * len(laws), desc="grid study", unit="simulation") as bar:
+        for (cells, across), cfl in itertools.product(grids, cfls):
             for setup in setups:
-                compared = target(setup, {**simulation, "cells_per_height": cells, "cells_across": across})
+                compared = target(setup, {**simulation, "cells_per_height": cells, "cells_across": across,
+                                          "cfl": cfl})
                 for label, law in laws.items():
                     start = time.perf_counter()
                     result = compared.compare(*law)
-                    rows.append({"grid": f"{cells}x{across}", "resolution": compared.scene.resolution,
+                    rows.append({"grid": f"{cells}x{across}", "cfl": cfl, "resolution": compared.scene.resolution,
                                  "particles": len(compared.scene.initial_positions), "setup": setup.folder.name,
                                  "law": label, "tau_y_Pa": law[0], "K_Pa_s_n": law[1], "n": law[2],
                                  "loss_px": result.loss,
@@ -86,6 +92,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--material", required=True)
     parser.add_argument("--grids", type=grid, nargs="+", required=True, help="CxA: cells per height x across")
+    parser.add_argument("--cfl", type=float, nargs="+", help="time steps, as fractions of a cell's crossing time")
     parser.add_argument("--law", type=law, action="append", default=[], help="tau_y,K,n (repeatable)")
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
     parser.add_argument("--config", type=Path, default=ROOT / "config/config.yaml")
@@ -104,7 +111,7 @@ def main(argv: list[str] | None = None) -> None:
     if not laws:
         parser.error(f"{args.material}: no law to simulate (give --law; no rheometer curves, no {fitted})")
     setups = [read_setup(folder, config["scale"]) for folder in setup_folders(config["data"], args.material)]
-    rows = study(setups, config["simulation"], laws, args.grids)
+    rows = study(setups, config["simulation"], laws, args.grids, args.cfl or [config["simulation"]["cfl"]])
     for row in rows:
         print(json.dumps(row), flush=True)
     write_json_atomic(args.out, {"material": args.material, "laws": laws, "rheometer_band_per_s": band,

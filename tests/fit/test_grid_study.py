@@ -14,7 +14,7 @@ from rheo.fit.grid_study import grid, law, rheometer_law, study
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data"
 CURVES = sorted(str(p) for p in (SHARED / "rheometer").glob("Lotion_*.csv"))
 SIMULATION = {"cells_per_height": 8, "cells_across": 10, "particles_per_cell": 2, "mu": 300.0, "lam": 1.0e4,
-              "max_offset": 0.15}
+              "max_offset": 0.15, "cfl": 0.4}
 
 
 def test_the_rheometer_law_fits_every_lotion_curve_and_is_shear_thinning():
@@ -26,9 +26,10 @@ def test_the_rheometer_law_fits_every_lotion_curve_and_is_shear_thinning():
 
 def test_a_finer_grid_lets_the_rheometer_law_flow_farther_toward_the_recording():
     setup = read_setup(SHARED / "virheometry" / "ref_Lotion_2.5_5.1_1", scale=0.5)
-    rows = study([setup], SIMULATION, {"rheometer": rheometer_law(CURVES, (0.3, 30.0))}, [(4, 4), (6, 6)])
+    rows = study([setup], SIMULATION, {"rheometer": rheometer_law(CURVES, (0.3, 30.0))}, [(4, 4), (6, 6)], [0.4])
     coarse, finer = rows
-    assert [coarse["grid"], finer["grid"]] == ["4x4", "6x6"] and finer["resolution"] > coarse["resolution"]
+    assert [coarse["grid"], finer["grid"]] == ["4x4", "6x6"] and coarse["cfl"] == finer["cfl"] == 0.4
+    assert finer["resolution"] > coarse["resolution"]
     assert coarse["recorded_last_outflow_px"] == finer["recorded_last_outflow_px"] > 0
     assert coarse["last_outflow_px"] < finer["last_outflow_px"] < finer["recorded_last_outflow_px"]
     assert finer["loss_px"] < coarse["loss_px"]

@@ -1,5 +1,5 @@
-"""The concealed-effect rules in a scratch copy of the workflow, on a coarse lab and a small search: two cases
-filmed in the scene's two channels, fitted jointly with the Bingham model, diagnosed and summed up."""
+"""The concealed-effect rules in a scratch copy of the workflow, on a coarse lab (whose grid the fits take) and a small
+search: two cases filmed in the scene's two channels, fitted jointly with the Bingham model, diagnosed and summed up."""
 
 import json
 
@@ -12,9 +12,8 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     (cases / "plain.yaml").write_text("name: plain\neffect: none\n")
     (cases / "sliding.yaml").write_text("name: sliding\neffect: floor_friction\nmagnitude: 0.3\n")
     (workflow.root / "quick.yaml").write_text(
-        "virheometry:\n  simulation: {cells_per_height: 4, cells_across: 4}\n"
         "concealed:\n  cases: cases\n  scene: {frames: 4}\n"
-        "  lab: {cells_per_height: 5, cells_across: 6}\n"
+        "  lab: {cells_per_height: 4, cells_across: 4}\n"
         "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1}\n"
         "diagnose: {candidates: [floor_friction, gravity_tilt], rung_evaluations: 2, refit_evaluations: 2,\n"
         "           held_out_every: 4}\n")
