@@ -150,11 +150,11 @@ def setup_files(records: list[str], masks: list[str]) -> dict[str, tuple[str, st
 
 
 def target(setup: Setup, simulation: dict) -> DamBreakTarget:
-    """A setup as a target, simulated with ``simulation``'s grid, particles and elastic constants; its first frame
-    ``min_offset`` (default 0) to ``max_offset`` s after the release, every ``held_out_every``-th frame (if given)
-    held out of the loss."""
+    """A setup as a target, simulated with ``simulation``'s grid, particles, time step and elastic constants; its
+    first frame ``min_offset`` (default 0) to ``max_offset`` s after the release, every ``held_out_every``-th frame
+    (if given) held out of the loss."""
     scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
-                            simulation["particles_per_cell"], cfl=simulation.get("cfl", 0.4))
+                            simulation["particles_per_cell"], cfl=simulation["cfl"])
     return DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]),
                           simulation.get("min_offset", 0.0), simulation.get("held_out_every"))
 
