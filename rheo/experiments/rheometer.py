@@ -52,6 +52,12 @@ def read_flow_curve(path: str | Path) -> FlowCurve:
     return FlowCurve(path.stem, data[:, 0], data[:, 1], float(data[:, 2].mean()))
 
 
+def pooled(curves: list[FlowCurve], name: str = "pooled") -> FlowCurve:
+    """The points of several curves as one (their mean temperature)."""
+    return FlowCurve(name, np.concatenate([c.shear_rate for c in curves]), np.concatenate([c.stress for c in curves]),
+                     float(np.mean([c.temperature for c in curves])))
+
+
 def herschel_bulkley(rate: np.ndarray, tau_y: float, K: float, n: float) -> np.ndarray:
     return tau_y + K * np.asarray(rate) ** n
 

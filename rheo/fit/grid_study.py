@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from tqdm.auto import tqdm
 
-from rheo.experiments.rheometer import FlowCurve, fit_herschel_bulkley, read_flow_curve
+from rheo.experiments.rheometer import fit_herschel_bulkley, pooled, read_flow_curve
 from rheo.experiments.virheometry import Setup, read_setup, setup_folders
 from rheo.fit.bench import ROOT, settings
 from rheo.fit.dam_break import RESULT_KEYS, target
@@ -50,6 +50,7 @@ def study(setups: list[Setup], simulation: dict, laws: dict[str, Law], grids: li
             for setup in setups:
                 compared = target(setup, {**simulation, "cells_per_height": cells, "cells_across": across,
                                           "cfl": cfl})
+                recorded = outflow(compared.masks[-1], compared.container)
                 for label, law in laws.items():
                     start = time.perf_counter()
                     result = compared.compare(*law)
@@ -58,7 +59,7 @@ def study(setups: list[Setup], simulation: dict, laws: dict[str, Law], grids: li
                                  "law": label, "tau_y_Pa": law[0], "K_Pa_s_n": law[1], "n": law[2],
                                  "loss_px": result.loss,
                                  "last_outflow_px": outflow(result.silhouettes[-1], compared.container),
-                                 "recorded_last_outflow_px": outflow(compared.masks[-1], compared.container),
+                                 "recorded_last_outflow_px": recorded,
                                  "seconds": round(time.perf_counter() - start, 1)})
                     bar.update()
     return rows
@@ -66,10 +67,8 @@ def study(setups: list[Setup], simulation: dict, laws: dict[str, Law], grids: li
 
 def rheometer_law(files: list[str], band: tuple[float, float] | None) -> Law:
     """The Herschel-Bulkley law fitted to all the rheometer's points (within ``band``, 1/s, if given)."""
-    curves = [read_flow_curve(f) for f in files]
-    pooled = FlowCurve("pooled", np.concatenate([c.shear_rate for c in curves]),
-                       np.concatenate([c.stress for c in curves]), float(np.mean([c.temperature for c in curves])))
-    return fit_herschel_bulkley(pooled.within(band) if band is not None else pooled)
+    curve = pooled([read_flow_curve(f) for f in files])
+    return fit_herschel_bulkley(curve.within(band) if band is not None else curve)
 
 
 def grid(text: str) -> tuple[int, int]:
