@@ -107,8 +107,10 @@ class DamBreakTarget:
     def compare(self, tau_y: float, K: float, n: float, effects: Effects | None = None) -> Comparison:
         frames = len(self.masks)
         steps = self.offsets + (frames - 1) * self.frame_steps
-        trajectory = self.scene.rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP, effects)
-        positions = trajectory.x.numpy()
+        # the simulated half's states: its mirror image's silhouette is drawn, its shear rates are the half's
+        trajectory = self.scene.simulated_rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP,
+                                                  effects)
+        positions = self.scene.positions(trajectory)
         drawn = {}
 
         def simulated(step: int) -> np.ndarray:

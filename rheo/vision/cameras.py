@@ -25,6 +25,9 @@ class Camera:
         """Pixel coordinates (N, 2) and depths (N,) of world points (distortion applied)."""
         w2c = self.w2c
         cam = points @ w2c[:3, :3].T + w2c[:3, 3]
+        if not self.dist.any():  # a pinhole: the perspective division alone, several times faster than OpenCV's
+            with np.errstate(divide="ignore", invalid="ignore"):
+                return (cam / cam[:, 2:]) @ self.K[:2].T, cam[:, 2]
         rvec, _ = cv2.Rodrigues(w2c[:3, :3])
         uv, _ = cv2.projectPoints(points.astype(np.float64), rvec, w2c[:3, 3], self.K, self.dist)
         return uv.reshape(-1, 2), cam[:, 2]

@@ -1,6 +1,9 @@
 """Evaluations spread over worker processes give the values a single process gives, in order."""
 
 import os
+import subprocess
+import sys
+import textwrap
 from functools import partial
 
 import numpy as np
@@ -26,3 +29,32 @@ def test_workers_return_the_values_of_one_process_in_order():
         assert pool.map(tasks) == expected == [_square_sum(1.0, p) for p in points]
         processes = set(pool.map([("process", p) for p in points]))
     assert float(os.getpid()) not in processes
+
+
+def _threads(x: np.ndarray) -> float:
+    import torch
+
+    product = torch.ones(600, 600) @ torch.ones(600, 600)  # a parallel operation where threads are allowed
+    return float(torch.get_num_threads()) + float(product[0, 0]) - 600.0
+
+
+def _thread_objectives() -> dict:
+    return {"threads": _threads}
+
+
+def test_workers_forked_after_the_parent_ran_threads_run_on_one_thread_and_do_not_hang():
+    """A worker forked from a process whose torch ran OpenMP threads hangs in its first parallel operation unless its
+    threads are set anew; each worker runs on one thread (two workers on two cores)."""
+    script = textwrap.dedent("""
+        import numpy as np, torch
+        from rheo.fit.parallel import Evaluator
+        from tests.fit.test_parallel import _thread_objectives
+        torch.set_num_threads(2)
+        torch.ones(600, 600) @ torch.ones(600, 600)
+        with Evaluator(_thread_objectives, workers=2) as pool:
+            print(pool.map([("threads", np.zeros(1))] * 4))
+    """)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120,
+                         cwd=os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.strip().splitlines()[-1] == "[1.0, 1.0, 1.0, 1.0]"
