@@ -69,9 +69,9 @@ def film(scene: dict, index: int, lab: dict, name: str, law: dict[str, float], e
                                 reach=lab["reach"], cfl=lab["cfl"])
     material = HerschelBulkley(**law, mu=mu, lam=lam, density=setup.density)
     dt = 1.0 / setup.fps
-    trajectory = lab_scene.rollout(material, scene["frames"] * dt, dt, effects)
+    positions = lab_scene.positions(lab_scene.rollout(material, scene["frames"] * dt, dt, effects))
     container = container_silhouette(setup)
-    masks = [lab_view(setup.camera, trajectory.x[k].numpy(), lab_scene.spacing)[1] | container
+    masks = [lab_view(setup.camera, positions[k], lab_scene.spacing)[1] | container
              for k in range(1, scene["frames"] + 1)]
     setup.masks[:] = masks
     return setup

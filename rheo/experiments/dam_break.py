@@ -165,20 +165,8 @@ class DamBreakScene:
 
     def rollout(self, material: HerschelBulkley, duration: float, sample_dt: float,
                 effects: Effects | None = None) -> Trajectory:
-        """The whole material's particles every ``sample_dt`` seconds from the release to ``duration`` (the
-        simulated half's mirror images appended)."""
-        half = self.simulated_rollout(material, duration, sample_dt, effects)
-        return half if self.mid_plane is None else half.with_mirror_images(self.mid_plane)
-
-    def positions(self, simulated: Trajectory) -> np.ndarray:
-        """The whole material's positions (frames, N, 3) in a ``simulated_rollout``: its own and, where only the half
-        was simulated, their mirror images (the particles' other states are the mirror's, to a sign)."""
-        x = simulated.x if self.mid_plane is None else simulated.positions_with_mirror_images(self.mid_plane)
-        return x.numpy()
-
-    def simulated_rollout(self, material: HerschelBulkley, duration: float, sample_dt: float,
-                          effects: Effects | None = None) -> Trajectory:
-        """``rollout`` of the simulated particles alone: the half before the mid-plane where the scene has one."""
+        """The simulated particles every ``sample_dt`` seconds from the release to ``duration``: the half before the
+        mid-plane where the scene has one (``positions`` gives the whole material's)."""
         effects = effects or Effects()
         frames = int(np.ceil(duration / sample_dt - 1e-9))
         simulator = self.simulator(material, effects)
@@ -190,6 +178,12 @@ class DamBreakScene:
         with torch.no_grad():
             return simulator.rollout(torch.as_tensor(self.initial_positions, dtype=torch.float32), torch.zeros(3),
                                      frames=frames, frame_dt=sample_dt, particle_volume=self.particle_volume, dt=dt)
+
+    def positions(self, trajectory: Trajectory) -> np.ndarray:
+        """The whole material's positions (frames, N, 3) in a ``rollout``: the simulated particles and, where only the
+        half was simulated, their mirror images."""
+        x = trajectory.x if self.mid_plane is None else trajectory.positions_with_mirror_images(self.mid_plane)
+        return x.numpy()
 
 
 def standing_walls(setup: Setup) -> list[StaticBox]:

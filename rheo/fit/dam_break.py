@@ -107,9 +107,8 @@ class DamBreakTarget:
     def compare(self, tau_y: float, K: float, n: float, effects: Effects | None = None) -> Comparison:
         frames = len(self.masks)
         steps = self.offsets + (frames - 1) * self.frame_steps
-        # the simulated half's states: its mirror image's silhouette is drawn, its shear rates are the half's
-        trajectory = self.scene.simulated_rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP,
-                                                  effects)
+        # the whole material's silhouette is drawn; the shear rates are the simulated half's (its mirror's are equal)
+        trajectory = self.scene.rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP, effects)
         positions = self.scene.positions(trajectory)
         drawn = {}
 

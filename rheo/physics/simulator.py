@@ -67,20 +67,11 @@ class Trajectory:
     substeps: int
 
     def positions_with_mirror_images(self, z: float) -> torch.Tensor:
-        """x with the particles' mirror images in the plane z = ``z`` appended (``with_mirror_images``' x)."""
+        """x with the particles' mirror images in the plane z = ``z`` appended: the whole of a flow simulated as its
+        half about a plane of symmetry (``Simulator(symmetry_z=z)``)."""
         mirror_x = self.x * torch.tensor([1.0, 1.0, -1.0], dtype=self.x.dtype)
         mirror_x[..., 2] += 2.0 * z
         return torch.cat([self.x, mirror_x], dim=1)
-
-    def with_mirror_images(self, z: float) -> Trajectory:
-        """The particles and their mirror images in the plane z = ``z`` (appended): the whole of a flow simulated
-        as its half about a plane of symmetry (``Simulator(symmetry_z=z)``)."""
-        flip = torch.tensor([1.0, 1.0, -1.0], dtype=self.x.dtype)
-        matrix_flip = flip[:, None] * flip[None, :]
-        return dataclasses.replace(self, x=self.positions_with_mirror_images(z),
-                                   v=torch.cat([self.v, self.v * flip], dim=1),
-                                   C=torch.cat([self.C, self.C * matrix_flip], dim=1),
-                                   F=torch.cat([self.F, self.F * matrix_flip], dim=1))
 
 
 class Simulator:

@@ -42,9 +42,9 @@ def test_the_first_frames_offset_is_found_on_silhouettes_of_a_known_rollout(chan
     truth = dict(tau_y=5.0, K=0.5, n=0.8)
     target = DamBreakTarget(scene, max_offset=0.05, elastic=(2e4, 2e4))
     offset_steps, frames = 7, len(setup.masks)
-    trajectory = scene.rollout(target.material(**truth), (offset_steps + (frames - 1) * target.frame_steps)
-                               * OFFSET_STEP, OFFSET_STEP)
-    observed = [skin(setup.camera, trajectory.x[offset_steps + k * target.frame_steps].numpy(), scene.spacing)
+    x = scene.positions(scene.rollout(target.material(**truth), (offset_steps + (frames - 1) * target.frame_steps)
+                                      * OFFSET_STEP, OFFSET_STEP))
+    observed = [skin(setup.camera, x[offset_steps + k * target.frame_steps], scene.spacing)
                 | target.container for k in range(frames)]
     setup.masks[:] = observed
     target = DamBreakTarget(scene, max_offset=0.05, elastic=(2e4, 2e4))

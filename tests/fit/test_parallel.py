@@ -5,6 +5,7 @@ import subprocess
 import sys
 import textwrap
 from functools import partial
+from pathlib import Path
 
 import numpy as np
 
@@ -55,6 +56,6 @@ def test_workers_forked_after_the_parent_ran_threads_run_on_one_thread_and_do_no
             print(pool.map([("threads", np.zeros(1))] * 4))
     """)
     run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120,
-                         cwd=os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+                         cwd=Path(__file__).resolve().parents[2])
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip().splitlines()[-1] == "[1.0, 1.0, 1.0, 1.0]"
