@@ -72,6 +72,8 @@ def build(scalar: type) -> SimpleNamespace:
     min_eig = scalar(1e-12)
     # squared off-diagonal size, relative to the diagonal's, at which the Jacobi rotations stop: the scalar's precision
     jacobi_tolerance = scalar(1e-12 if scalar is wp.float32 else 1e-26)
+    # relative step at which Halley's iteration stops: the next error, about its cube, is below the precision
+    halley_tolerance = scalar(1e-4 if scalar is wp.float32 else 1e-7)
 
     @wp.func
     def log_divided(a: scalar, b: scalar) -> scalar:
@@ -94,38 +96,61 @@ def build(scalar: type) -> SimpleNamespace:
         return (wp.exp(a) - wp.exp(b)) / d
 
     @wp.func
+    def halley_step(g: scalar, dg: scalar, d2g: scalar) -> scalar:
+        """The step of Halley's method on g (first and second derivatives dg > 0, d2g), or Newton's where Halley's
+        denominator 2 dg^2 - g d2g falls below dg^2 (far from the root)."""
+        denominator = scalar(2.0) * dg * dg - g * d2g
+        if denominator > dg * dg:
+            return scalar(2.0) * g * dg / denominator
+        return g / dg
+
+    @wp.func
     def hb_excess(excess_trial: scalar, relax: scalar, K: scalar, n: scalar) -> scalar:
         """Stress excess u = t - tau_y after one backward-Euler Herschel-Bulkley step.
 
-        Solves ``u + relax * (u / K)^(1/n) = excess_trial`` (``relax = mu dt``) by Newton's method on the convex
-        form of the equation, started above the root so that the iterates decrease monotonically.
+        Solves ``u + relax * (u / K)^(1/n) = excess_trial`` (``relax = mu dt``): in closed form for n = 1, else by
+        Halley's method on the convex form of the equation (Newton's where Halley's correction is ill-conditioned),
+        started above the root. Its cubic convergence stops after a relative step of ``halley_tolerance``: from the
+        usual start (the trial excess, a few per cent above the root) two powers, where Newton's method took four.
         """
         if excess_trial <= zero:
             return zero
+        if n == one:
+            return excess_trial * K / (K + relax)
         m = one / n
         u = zero
-        if n <= one:
-            # g(u) = u + relax (u/K)^m - excess_trial is convex in u; start at the smaller of two upper bounds.
-            u = wp.min(excess_trial, K * wp.pow(excess_trial / relax, n))
-            for _ in range(40):
+        if n < one:
+            # g(u) = u + relax (u/K)^m - excess_trial is convex in u; start at the smaller of two upper bounds,
+            # u = excess_trial or, where g is above excess_trial there (rarely), K (excess_trial / relax)^n.
+            u = excess_trial
+            for i in range(40):
                 q = wp.pow(u / K, m)
+                if i == 0 and relax * q > excess_trial:
+                    u = K * wp.pow(excess_trial / relax, n)
+                    q = excess_trial / relax
                 g = u + relax * q - excess_trial
-                dg = one + relax * m * q / wp.max(u, tiny)
-                u_next = wp.max(u - g / dg, zero)
-                if u_next >= u:
-                    break
+                slope = relax * m * q / wp.max(u, tiny)
+                u_next = wp.max(u - halley_step(g, one + slope, slope * (m - one) / wp.max(u, tiny)), zero)
+                converged = wp.abs(u_next - u) <= halley_tolerance * u_next
                 u = u_next
-        else:
-            # In the shear rate w, h(w) = K w^n + relax w - excess_trial is convex; start at w = excess/relax.
-            w = wp.min(excess_trial / relax, wp.pow(excess_trial / K, m))
-            for _ in range(40):
-                q = K * wp.pow(w, n)
-                h = q + relax * w - excess_trial
-                dh = n * q / wp.max(w, tiny) + relax
-                w_next = wp.max(w - h / dh, zero)
-                if w_next >= w:
+                if converged:
                     break
+        else:
+            # In the shear rate w, h(w) = K w^n + relax w - excess_trial is convex; start at the smaller of two
+            # upper bounds, w = excess_trial / relax or, where h is above excess_trial there, (excess_trial / K)^m.
+            w = excess_trial / relax
+            for i in range(40):
+                q = K * wp.pow(w, n)
+                if i == 0 and q > excess_trial:
+                    w = wp.pow(excess_trial / K, m)
+                    q = excess_trial
+                h = q + relax * w - excess_trial
+                slope = n * q / wp.max(w, tiny)
+                w_next = wp.max(w - halley_step(h, slope + relax, slope * (n - one) / wp.max(w, tiny)), zero)
+                converged = wp.abs(w_next - w) <= halley_tolerance * w_next
                 w = w_next
+                if converged:
+                    break
             u = K * wp.pow(w, n)
         return u
 

@@ -57,17 +57,20 @@ def test_herschel_bulkley_with_n_1_equals_bingham_closed_form():
 
 
 @pytest.mark.parametrize("n", [0.3, 0.6, 1.0, 1.7])
-def test_herschel_bulkley_return_solves_the_flow_rule(n):
-    """u + mu dt (u / K)^(1/n) = excess: the stress excess after one step, against a bracketing root finder."""
-    k = kn.build(wp.float64)
+@pytest.mark.parametrize(("scalar", "rel"), [(wp.float64, 1e-12), (wp.float32, 2e-6)])
+@pytest.mark.parametrize(("relax", "K"), [(3.0, 12.0), (0.04, 0.9)])
+def test_herschel_bulkley_return_solves_the_flow_rule(n, scalar, rel, relax, K):
+    """u + mu dt (u / K)^(1/n) = excess: the stress excess after one step, against a bracketing root finder, where
+    the iteration starts from either upper bound (relax 3: the excess, or K (excess / relax)^n for large excesses)
+    and where the root lies just below the excess (relax 0.04: a dam break's mu dt)."""
+    k = kn.build(scalar)
     trial = np.geomspace(1e-3, 1e5, 40)
-    relax, K = 3.0, 12.0
-    out = wp.zeros(len(trial), dtype=wp.float64)
-    wp.launch(k.hb_excess, len(trial), inputs=[wp.array(trial, dtype=wp.float64), wp.float64(relax),
-                                               wp.float64(K), wp.float64(n), out])
-    for u, x in zip(out.numpy(), trial, strict=True):
-        ref = brentq(lambda v, x=x: v + relax * (v / K) ** (1 / n) - x, 0.0, x, xtol=1e-14, rtol=1e-14)
-        assert u == pytest.approx(ref, rel=1e-9, abs=1e-12)
+    out = wp.zeros(len(trial), dtype=scalar)
+    wp.launch(k.hb_excess, len(trial), inputs=[wp.array(trial, dtype=scalar), scalar(relax), scalar(K), scalar(n),
+                                               out])
+    for u, x in zip(out.numpy(), wp.array(trial, dtype=scalar).numpy().astype(float), strict=True):
+        ref = brentq(lambda v, x=x: v + relax * (v / K) ** (1 / n) - x, 0.0, x, xtol=1e-300, rtol=1e-15)
+        assert u == pytest.approx(ref, rel=rel)
 
 
 def test_plasticine_projects_onto_the_yield_surface():
