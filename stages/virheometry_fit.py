@@ -1,7 +1,8 @@
 """virheometry_fit: tau_y, K and n (or tau_y and K at a fixed flow index) of one material from its dam breaks (all
-its setups jointly, or one), with the first frame's time after the release found for each setup. A survey of the
-box; with the flow index free, searches of tau_y and K at a few flow indices from the survey's best law (each
-keeping its stress at a shear rate typical of the flow); simplex searches from the best points side by side, then
+its setups jointly, or one), with the first frame's time after the release found for each setup. With the flow
+index free, a line search of the stress at a shear rate typical of the flow, then searches of tau_y and K at a few
+flow indices from that stress (each keeping it at first); with the flow index fixed, a survey of the box instead.
+Simplex searches from the survey's best points side by side (with the flow index fixed), then
 rounds of a composite design around the best, each followed by a quadratic fitted to the squared losses
 (rheo.fit.surface): its lowest point, or the best law evaluated where that loses less, is the estimate, and the
 region where it stays within the tolerance gives the intervals. Each evaluation simulates the setups side by side,
@@ -17,7 +18,15 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from rheo.diagnose.candidates import Law
-from rheo.fit.dam_break import MOVING_RATE, RESULT_KEYS, comparisons, flow_index_starts, setup_files, shear_rate_band
+from rheo.fit.dam_break import (
+    MOVING_RATE,
+    RESULT_KEYS,
+    comparisons,
+    flow_index_starts,
+    setup_files,
+    shear_rate_band,
+    stress_level,
+)
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, estimate, start_step, survey_points
 from rheo.io import write_atomic, write_json_atomic
@@ -60,14 +69,18 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
 
     evaluate_many = partial(evaluations.evaluate_many, joint)  # points, phase -> losses, stored
     step = start_step((high - low).min(), settings["samples"], len(names))
-    points = survey_points(0.5 * (low + high), 0.5 * (high - low), settings["samples"])
-    # in chunks that keep every worker busy, each stored as it ends
-    chunk = max(smk.threads, 1)
-    losses = np.concatenate([evaluate_many(list(points[i:i + chunk]), "survey") for i in range(0, len(points), chunk)])
-    found = [(points[i], losses[i]) for i in np.argsort(losses, kind="stable")[:settings["starts"]]]
-    if law.n is None and settings["flow_index_searches"]:
-        found += flow_index_starts(evaluate_many, found[0][0], settings["flow_index_searches"], settings["stress_rate"],
-                                   settings["flow_index_evaluations"], step, (low, high))
+    searched_flow_indices = law.n is None and bool(settings["flow_index_searches"])
+    if searched_flow_indices:
+        log_stress = stress_level(evaluate_many, settings["stress_rate"], (low, high), settings["stress_evaluations"])
+        found = flow_index_starts(evaluate_many, log_stress, settings["flow_index_searches"], settings["stress_rate"],
+                                  settings["flow_index_evaluations"], (low, high))
+    else:
+        points = survey_points(0.5 * (low + high), 0.5 * (high - low), settings["samples"])
+        # in chunks that keep every worker busy, each stored as it ends
+        chunk = max(smk.threads, 1)
+        losses = np.concatenate([evaluate_many(list(points[i:i + chunk]), "survey")
+                                 for i in range(0, len(points), chunk)])
+        found = [(points[i], losses[i]) for i in range(len(points))]
     starts = [x for x, _ in sorted(found, key=lambda f: f[1])[:settings["starts"]]]
 
     def simulate(x: np.ndarray) -> dict:
@@ -82,7 +95,8 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
         return evaluations.evaluate_many(lambda _: [float(np.mean([d.loss for d in simulated[tuple(x)].values()]))],
                                          [x], "estimate")[0]
 
-    result = estimate(evaluate_many, starts, names, seen=evaluations.seen, evaluations=settings["evaluations"],
+    result = estimate(evaluate_many, starts, names, seen=evaluations.seen,
+                      evaluations=0 if searched_flow_indices else settings["evaluations"],
                       start_step=step, half_width=settings["half_width"], rounds=settings["rounds"],
                       tolerance=settings["tolerance"], box=(low, high), side_by_side=True,
                       evaluate_estimate=evaluate_estimate)

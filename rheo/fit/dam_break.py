@@ -19,6 +19,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from rheo.diagnose.candidates import Law
 from rheo.experiments.dam_break import DamBreakScene, Effects, dam_break_scene
@@ -30,6 +31,10 @@ from rheo.render.silhouette import boundary_distance, distance_to, iou, silhouet
 OFFSET_STEP = 1.0 / 240.0  # s
 MOVING_RATE = 0.1  # 1/s: slower particles count as at rest in the shear-rate band
 SHARE_STEP = 1.0  # the flow-index searches' initial step in the logit of the yield stress' share (0.5 -> 0.73)
+# ... and in the log of the stress at the stress rate, which the stress search has placed and good laws share within
+# about 12 %
+STRESS_STEP = 0.1
+STRESS_TOLERANCE = 0.05  # log units: the stress search's resolution
 
 
 def skin(camera, points: np.ndarray, spacing: float) -> np.ndarray:
@@ -195,29 +200,49 @@ def from_stress_split(z: np.ndarray, n: float, rate: float) -> np.ndarray:
     return np.log([share * stress, (1.0 - share) * stress / rate ** n, n])
 
 
-def flow_index_starts(evaluate_many: EvaluateMany, best: np.ndarray, flow_indices: Sequence[float], rate: float,
-                      evaluations: int, step: float, box: tuple[np.ndarray, np.ndarray]
-                      ) -> list[tuple[np.ndarray, float]]:
+def even_split_law(log_stress: float, n: float, rate: float, box: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """The law of flow index ``n`` whose stress at ``rate`` is exp(``log_stress``), split evenly between yield and
+    viscous stress, clipped to ``box``."""
+    return np.clip(from_stress_split(np.array([log_stress, 0.0]), n, rate), *box)
+
+
+def stress_level(evaluate_many: EvaluateMany, rate: float, box: tuple[np.ndarray, np.ndarray], evaluations: int,
+                 n: float = 1.0) -> float:
+    """The log of the stress at ``rate`` that fits best among the laws of flow index ``n`` whose stress is split
+    evenly (phase "stress"): bounded Brent over the stresses whose law lies in ``box``, at most ``evaluations``
+    iterations, to ``STRESS_TOLERANCE``. A dam break's silhouettes fix that stress tightly and the rest of the law
+    loosely, so one line search places the flow-index searches' starts in the valley of good laws (on Lotion a survey
+    of 12 points of the box came within 3 to 4 times the fit's loss at best)."""
+    (tau_y_low, k_low), (tau_y_high, k_high) = np.exp(box[0][:2]), np.exp(box[1][:2])
+    viscous = rate ** n
+    bounds = (np.log(2.0 * max(tau_y_low, k_low * viscous)), np.log(2.0 * min(tau_y_high, k_high * viscous)))
+    result = minimize_scalar(lambda z: evaluate_many([even_split_law(z, n, rate, box)], "stress")[0], bounds=bounds,
+                             method="bounded", options={"xatol": STRESS_TOLERANCE, "maxiter": evaluations})
+    return float(result.x)
+
+
+def flow_index_starts(evaluate_many: EvaluateMany, log_stress: float, flow_indices: Sequence[float], rate: float,
+                      evaluations: int, box: tuple[np.ndarray, np.ndarray]) -> list[tuple[np.ndarray, float]]:
     """A search of tau_y and K at each of ``flow_indices`` (phases "n <value>", side by side), each from the law of
-    that index with the stress at ``rate`` of ``best`` (the survey's best law) split evenly between yield and viscous
-    stress, in those two coordinates (``stress_split``; Nelder-Mead, initial steps ``step`` and ``SHARE_STEP``,
-    ``evaluations`` each, laws clipped to ``box``): each search's best law and its loss.
+    that index with the stress exp(``log_stress``) at ``rate`` (``stress_level``'s) split evenly between yield and
+    viscous stress, in those two coordinates (``stress_split``; Nelder-Mead, initial steps ``STRESS_STEP`` and
+    ``SHARE_STEP``, ``evaluations`` each, laws clipped to ``box``): each search's best law and its loss.
 
     A dam break's silhouettes fix the stress at the shear rates of its flow tightly and its split between yield and
     viscous stress and the flow index loosely, so equally good laws lie along a curved valley in (tau_y, K, n), with
-    basins along it that a survey of the box is too coarse to tell apart. Keeping the survey's stress puts every
-    search's start in the valley; the even split lets it reach a basin on either side (on a grid of 8 x 10 cells,
-    the survey's best may have an extreme split: Mustard's, a yield stress of 0.2 % of the stress, whose basin
-    loses 0.0176 px, where searches from an even split find 0.016 at n 1 and 1.4; Lotion: searches from the
-    survey's best alone found n 0.58 at 0.0307 px, these 0.0281 at n 1 and 0.0260 at n 1.4)."""
-    start = np.array([stress_split(best, rate)[0], 0.0])
+    basins along it that a survey of the box is too coarse to tell apart. Keeping the stress puts every search's
+    start in the valley; the even split lets it reach a basin on either side (on a grid of 8 x 10 cells, a survey's
+    best may have an extreme split: Mustard's, a yield stress of 0.2 % of the stress, whose basin loses 0.0176 px,
+    where searches from an even split find 0.016 at n 1 and 1.4; Lotion: searches from the survey's best alone found
+    n 0.58 at 0.0307 px, these 0.0281 at n 1 and 0.0260 at n 1.4)."""
+    start = np.array([log_stress, 0.0])
 
     def search(n: float) -> tuple[np.ndarray, float]:
         def law(z: np.ndarray) -> np.ndarray:
             return np.clip(from_stress_split(z, n, rate), *box)
 
         z, loss = simplex_search(lambda z, phase: evaluate_many([law(z)], phase)[0], start,
-                                 np.array([step, SHARE_STEP]), evaluations, f"n {n:g}")
+                                 np.array([STRESS_STEP, SHARE_STEP]), evaluations, f"n {n:g}")
         return law(z), loss
 
     with ThreadPoolExecutor(len(flow_indices)) as threads:

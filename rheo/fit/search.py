@@ -219,10 +219,11 @@ def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: S
              half_width: float, rounds: int, tolerance: float, box: tuple[np.ndarray, np.ndarray],
              guess: np.ndarray | None = None, side_by_side: bool = False,
              evaluate_estimate: Callable[[np.ndarray], float] | None = None) -> Estimate:
-    """Nelder-Mead from each of ``starts`` (``evaluations`` shared among them, inside ``box``), then the surface of
-    the loss around the best point found (``rheo.fit.surface.refine``): its lowest point, or the best evaluated where
-    that is lower, is the estimate, and its region within the tolerance gives the intervals, grown to the evaluated
-    materials within it. ``seen()`` gives every point evaluated so far and its loss (``EvaluationLog.seen``);
+    """Nelder-Mead from each of ``starts`` (``evaluations`` shared among them, inside ``box``; none without
+    evaluations: the first start is the best), then the surface of the loss around the best point found
+    (``rheo.fit.surface.refine``): its lowest point, or the best evaluated where that is lower, is the estimate, and
+    its region within the tolerance gives the intervals, grown to the evaluated materials within it. ``seen()`` gives
+    every point evaluated so far and its loss (``EvaluationLog.seen``);
     ``evaluate_estimate`` evaluates the estimate (by default as phase "estimate").
 
     With a ``guess``, parameters the recordings do not determine and whose guess lies inside their interval (or
@@ -232,8 +233,11 @@ def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: S
     (A stiff material's moduli, say, are undetermined above some value but matter below it: a guess below stays
     unused.)"""
     evaluate_estimate = evaluate_estimate or (lambda x: evaluate_many([x], "estimate")[0])
-    x, _ = start_searches(lambda x, phase: evaluate_many([x], phase)[0], starts, start_step,
-                          evaluations // len(starts), box, side_by_side)
+    if evaluations > 0:
+        x, _ = start_searches(lambda x, phase: evaluate_many([x], phase)[0], starts, start_step,
+                              evaluations // len(starts), box, side_by_side)
+    else:
+        x = np.asarray(starts[0], dtype=float)
     everything = list(range(len(x)))
     x, loss, intervals, evidence = surface_estimate(evaluate_many, x, everything, names, seen, half_width, rounds,
                                                     tolerance, box, evaluate_estimate, "surface")
@@ -245,9 +249,10 @@ def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: S
     fixed = x.copy()
     fixed[held] = guess[held]
     # the valley of the others moves with the held values: a simplex search finds its floor before the surface
-    fixed[free], _ = simplex_search(lambda y, phase: evaluate_many([_embed(fixed, free, y)], phase)[0], fixed[free],
-                                    start_step, evaluations // len(starts), "start, held",
-                                    box=(box[0][free], box[1][free]))
+    if evaluations > 0:
+        fixed[free], _ = simplex_search(lambda y, phase: evaluate_many([_embed(fixed, free, y)], phase)[0],
+                                        fixed[free], start_step, evaluations // len(starts), "start, held",
+                                        box=(box[0][free], box[1][free]))
     y, held_loss, free_intervals, evidence = surface_estimate(evaluate_many, fixed, free, names, seen, half_width,
                                                               rounds, tolerance, box, evaluate_estimate,
                                                               "surface, held")

@@ -12,6 +12,7 @@ from rheo.fit.dam_break import (
     from_stress_split,
     shear_rates,
     skin,
+    stress_level,
     stress_split,
 )
 from rheo.fit.search import simplex_search
@@ -64,7 +65,7 @@ def test_the_stress_split_is_the_stress_at_the_rate_and_the_yield_stress_share_a
         assert np.allclose(from_stress_split(np.array([log_stress, logit_share]), n, 7.0), x)
 
 
-def test_flow_index_searches_find_the_deeper_basin_along_the_valley_of_equal_stress():
+def test_the_stress_search_and_flow_index_searches_find_the_deeper_basin_along_the_valley_of_equal_stress():
     rate, box = 10.0, (np.log([0.1, 0.1, 0.1]), np.log([300.0, 300.0, 2.0]))
 
     def loss(x):  # steep across the laws of stress 20 Pa at the rate; along them, a shallow and a deeper basin
@@ -75,20 +76,22 @@ def test_flow_index_searches_find_the_deeper_basin_along_the_valley_of_equal_str
 
     def evaluate_many(points, phase):
         phases.append(phase)
+        assert all(np.all((box[0] <= x) & (x <= box[1])) for x in points)
         return [loss(x) for x in points]
 
     phases = []
     survey_best = np.log([5.5, 5.5, 0.45])  # in the shallow basin
     x, value = simplex_search(lambda x, phase: loss(x), survey_best, 0.26, 48, "start", box=box)
     assert value > 0.0299  # a search of all three from it stays there
-    # the survey's best in the shallow basin, or where yield stress is 0.25 % of the stress (Mustard's survey)
-    for best in (survey_best, from_stress_split(np.array([np.log(20.0), -6.0]), 1.44, rate)):
-        phases.clear()
-        found = flow_index_starts(evaluate_many, best, [0.4, 0.7, 1.0, 1.4], rate, 20, 0.26, box)
-        assert [np.exp(x[2]) for x, _ in found] == pytest.approx([0.4, 0.7, 1.0, 1.4])
-        (x, value), = [f for f in found if np.exp(f[0][2]) == pytest.approx(1.0)]
-        assert value < 0.0285 and min(v for _, v in found) == value
-        tau_y, K, _ = np.exp(x)
-        stress = tau_y + K * rate
-        assert stress == pytest.approx(20.0, rel=0.05) and tau_y / stress == pytest.approx(0.68, abs=0.1)
-        assert sorted(set(phases)) == ["n 0.4", "n 0.7", "n 1", "n 1.4"] and len(phases) <= 4 * 20
+    log_stress = stress_level(evaluate_many, rate, box, 8)
+    assert np.exp(log_stress) == pytest.approx(20.0, rel=0.05)
+    assert set(phases) == {"stress"} and len(phases) <= 9
+    phases.clear()
+    found = flow_index_starts(evaluate_many, log_stress, [0.4, 0.7, 1.0, 1.4], rate, 12, box)
+    assert [np.exp(x[2]) for x, _ in found] == pytest.approx([0.4, 0.7, 1.0, 1.4])
+    (x, value), = [f for f in found if np.exp(f[0][2]) == pytest.approx(1.0)]
+    assert value < 0.0285 and min(v for _, v in found) == value
+    tau_y, K, _ = np.exp(x)
+    stress = tau_y + K * rate
+    assert stress == pytest.approx(20.0, rel=0.05) and tau_y / stress == pytest.approx(0.68, abs=0.1)
+    assert sorted(set(phases)) == ["n 0.4", "n 0.7", "n 1", "n 1.4"] and len(phases) <= 4 * 12

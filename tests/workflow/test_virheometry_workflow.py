@@ -9,7 +9,7 @@ def test_a_setup_is_imported_and_fitted(workflow):
     (workflow.root / "quick.yaml").write_text(
         "virheometry:\n  simulation: {cells_per_height: 4, cells_across: 4, max_offset: 0.05}\n"
         "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1, flow_index_searches: [1.0],\n"
-        "        flow_index_evaluations: 2}\n")
+        "        flow_index_evaluations: 2, stress_evaluations: 2}\n")
     run = workflow.run("results/virheometry/Carbonara/fit_setup2/params.json", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
     setup = json.loads((workflow.root / "results/virheometry/setups/ref_Carbonara_2.0_2.5_2/setup.json").read_text())
@@ -30,7 +30,7 @@ def test_a_setup_is_imported_and_fitted(workflow):
     assert (workflow.root / "results/virheometry/Carbonara/fit_setup2/frames.png").stat().st_size > 0
     with open(workflow.root / "results/virheometry/Carbonara/fit_setup2/history.csv") as f:
         phases = {row["phase"] for row in csv.DictReader(f)}
-    assert {"survey", "n 1"} <= phases  # the search of tau_y and K at the flow index asked for ran
+    assert {"stress", "n 1"} <= phases  # the stress search and the search of tau_y and K at the flow index ran
     assert not list((workflow.root / "results/virheometry/Carbonara/fit_setup2").glob("*.evaluations.json"))
 
 
