@@ -225,7 +225,9 @@ def build(scalar: type) -> SimpleNamespace:
         beta = alpha - one
         kappa = scalar(2.0 / 3.0) * mu + lam
         QT = wp.transpose(Q)
-        P = Q * wp.diag(vec3(wp.exp(beta * e[0]), wp.exp(beta * e[1]), wp.exp(beta * e[2]))) * QT
+        P = wp.identity(3, dtype=scalar)
+        if beta != zero:  # yielded
+            P = Q * wp.diag(vec3(wp.exp(beta * e[0]), wp.exp(beta * e[1]), wp.exp(beta * e[2]))) * QT
         T = Q * wp.diag(scalar(2.0) * mu * alpha * e + vec3(kappa * tr)) * QT
         out = mat63()
         for i in range(3):
