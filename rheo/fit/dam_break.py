@@ -212,7 +212,7 @@ def stress_level(evaluate_many: EvaluateMany, rate: float, box: tuple[np.ndarray
     evenly (phase "stress"): bounded Brent over the stresses whose law lies in ``box``, at most ``evaluations``
     iterations, to ``STRESS_TOLERANCE``. A dam break's silhouettes fix that stress tightly and the rest of the law
     loosely, so one line search places the flow-index searches' starts in the valley of good laws (on Lotion a survey
-    of 12 points of the box came within 3 to 4 times the fit's loss at best)."""
+    of 12 points of the box came within 3 to 5 times the fit's loss at best)."""
     (tau_y_low, k_low), (tau_y_high, k_high) = np.exp(box[0][:2]), np.exp(box[1][:2])
     viscous = rate ** n
     bounds = (np.log(2.0 * max(tau_y_low, k_low * viscous)), np.log(2.0 * min(tau_y_high, k_high * viscous)))
