@@ -80,7 +80,7 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
         chunk = max(smk.threads, 1)
         losses = np.concatenate([evaluate_many(list(points[i:i + chunk]), "survey")
                                  for i in range(0, len(points), chunk)])
-        found = [(points[i], losses[i]) for i in range(len(points))]
+        found = list(zip(points, losses, strict=True))
     starts = [x for x, _ in sorted(found, key=lambda f: f[1])[:settings["starts"]]]
 
     def simulate(x: np.ndarray) -> dict:
