@@ -200,10 +200,9 @@ def from_stress_split(z: np.ndarray, n: float, rate: float) -> np.ndarray:
     return np.log([share * stress, (1.0 - share) * stress / rate ** n, n])
 
 
-def even_split_law(log_stress: float, n: float, rate: float, box: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    """The law of flow index ``n`` whose stress at ``rate`` is exp(``log_stress``), split evenly between yield and
-    viscous stress, clipped to ``box``."""
-    return np.clip(from_stress_split(np.array([log_stress, 0.0]), n, rate), *box)
+def clipped_law(z: np.ndarray, n: float, rate: float, box: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """``from_stress_split``'s law, clipped to ``box``."""
+    return np.clip(from_stress_split(z, n, rate), *box)
 
 
 def stress_level(evaluate_many: EvaluateMany, rate: float, box: tuple[np.ndarray, np.ndarray], evaluations: int,
@@ -216,8 +215,9 @@ def stress_level(evaluate_many: EvaluateMany, rate: float, box: tuple[np.ndarray
     (tau_y_low, k_low), (tau_y_high, k_high) = np.exp(box[0][:2]), np.exp(box[1][:2])
     viscous = rate ** n
     bounds = (np.log(2.0 * max(tau_y_low, k_low * viscous)), np.log(2.0 * min(tau_y_high, k_high * viscous)))
-    result = minimize_scalar(lambda z: evaluate_many([even_split_law(z, n, rate, box)], "stress")[0], bounds=bounds,
-                             method="bounded", options={"xatol": STRESS_TOLERANCE, "maxiter": evaluations})
+    result = minimize_scalar(lambda z: evaluate_many([clipped_law(np.array([z, 0.0]), n, rate, box)], "stress")[0],
+                             bounds=bounds, method="bounded",
+                             options={"xatol": STRESS_TOLERANCE, "maxiter": evaluations})
     return float(result.x)
 
 
@@ -238,12 +238,9 @@ def flow_index_starts(evaluate_many: EvaluateMany, log_stress: float, flow_indic
     start = np.array([log_stress, 0.0])
 
     def search(n: float) -> tuple[np.ndarray, float]:
-        def law(z: np.ndarray) -> np.ndarray:
-            return np.clip(from_stress_split(z, n, rate), *box)
-
-        z, loss = simplex_search(lambda z, phase: evaluate_many([law(z)], phase)[0], start,
+        z, loss = simplex_search(lambda z, phase: evaluate_many([clipped_law(z, n, rate, box)], phase)[0], start,
                                  np.array([STRESS_STEP, SHARE_STEP]), evaluations, f"n {n:g}")
-        return law(z), loss
+        return clipped_law(z, n, rate, box), loss
 
     with ThreadPoolExecutor(len(flow_indices)) as threads:
         return list(threads.map(search, flow_indices))
