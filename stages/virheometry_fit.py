@@ -68,12 +68,13 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
         return losses
 
     evaluate_many = partial(evaluations.evaluate_many, joint)  # points, phase -> losses, stored
-    step = start_step((high - low).min(), settings["samples"], len(names))
     searched_flow_indices = law.n is None and bool(settings["flow_index_searches"])
     if searched_flow_indices:
         log_stress = stress_level(evaluate_many, settings["stress_rate"], (low, high), settings["stress_evaluations"])
         found = flow_index_starts(evaluate_many, log_stress, settings["flow_index_searches"], settings["stress_rate"],
                                   settings["flow_index_evaluations"], (low, high))
+        # the surface is centred on the searches' best law, without simplex searches
+        simplex_evaluations, step = 0, 0.0
     else:
         points = survey_points(0.5 * (low + high), 0.5 * (high - low), settings["samples"])
         # in chunks that keep every worker busy, each stored as it ends
@@ -81,6 +82,8 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
         losses = np.concatenate([evaluate_many(list(points[i:i + chunk]), "survey")
                                  for i in range(0, len(points), chunk)])
         found = list(zip(points, losses, strict=True))
+        simplex_evaluations = settings["evaluations"]
+        step = start_step((high - low).min(), settings["samples"], len(names))
     starts = [x for x, _ in sorted(found, key=lambda f: f[1])[:settings["starts"]]]
 
     def simulate(x: np.ndarray) -> dict:
@@ -96,9 +99,8 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
                                          [x], "estimate")[0]
 
     result = estimate(evaluate_many, starts, names, seen=evaluations.seen,
-                      evaluations=0 if searched_flow_indices else settings["evaluations"],
-                      start_step=step, half_width=settings["half_width"], rounds=settings["rounds"],
-                      tolerance=settings["tolerance"], box=(low, high), side_by_side=True,
+                      evaluations=simplex_evaluations, start_step=step, half_width=settings["half_width"],
+                      rounds=settings["rounds"], tolerance=settings["tolerance"], box=(low, high), side_by_side=True,
                       evaluate_estimate=evaluate_estimate)
     x, loss, intervals = result.log_values, result.loss, result.intervals
     log.info("estimate: loss %.5g px, %s", loss, describe(x))

@@ -20,7 +20,7 @@ import torch
 
 from rheo.experiments.virheometry import CONTAINER_RIM, Setup, StaticBox, container_silhouette
 from rheo.physics import Box, Floor, HerschelBulkley, OptionalPhysics, Simulator, dam_break_gate, kernels
-from rheo.physics.simulator import Trajectory
+from rheo.physics.simulator import DEFAULT_CFL, Trajectory
 from rheo.vision.cameras import Camera
 
 WALL_CELLS = 2  # the least thickness of a wall, in grid cells
@@ -93,7 +93,7 @@ class DamBreakScene:
     resolution: int
     particles_per_cell: int
     mid_plane: float | None = None  # z of the plane of symmetry when the half before it is simulated
-    cfl: float = 0.4
+    cfl: float = DEFAULT_CFL
 
     @property
     def dx(self) -> float:
@@ -205,7 +205,7 @@ def mid_plane(setup: Setup) -> float | None:
 
 
 def dam_break_scene(setup: Setup, cells_per_height: int = 8, cells_across: int = 10, particles_per_cell: int = 2,
-                    margin: float = 0.25, reach: float | None = None, cfl: float = 0.4) -> DamBreakScene:
+                    margin: float = 0.25, reach: float | None = None, cfl: float = DEFAULT_CFL) -> DamBreakScene:
     """The scene of ``setup`` on cells of at most H / ``cells_per_height`` and at most the channel's depth /
     ``cells_across``: a cube holding the channel and the material that leaves it, the ``runout`` past the gate and
     as far to either side (grown by ``margin``), above ``kernels.BOUND`` boundary cells on every face and one more

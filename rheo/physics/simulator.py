@@ -31,6 +31,8 @@ logger = logging.getLogger(__name__)
 
 # arguments of kernels.grid_update that change every step
 GRID_UPDATE_TIME, GRID_UPDATE_LOW = 3, 12
+# the default step: this share of the time a wave (elastic, plus the fastest flow) takes to cross a cell
+DEFAULT_CFL = 0.4
 
 
 def particle_bounds(domain_origin, domain_size: float, dx: float) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +97,7 @@ class Simulator:
 
     def __init__(self, material: Material, *, resolution: int = 32, domain_size: float = 1.0,
                  colliders: tuple[Collider, ...] | list[Collider] = (), gravity=(0.0, -9.8, 0.0),
-                 dtype: torch.dtype = torch.float32, cfl: float = 0.4, max_halvings: int = 4,
+                 dtype: torch.dtype = torch.float32, cfl: float = DEFAULT_CFL, max_halvings: int = 4,
                  checkpoint_mb: float = 1024.0, domain_origin=(0.0, 0.0, 0.0),
                  symmetry_z: float | None = None, physics: OptionalPhysics | None = None,
                  dt: float | None = None) -> None:
