@@ -1,5 +1,8 @@
 """virheometry_summary: every material's recovered law in one table (values, intervals, IoU, shear-rate band,
-runtime) and one plot of all flow curves."""
+runtime) and one plot of all flow curves, with a link to each material's page."""
+
+import html
+from pathlib import Path
 
 import numpy as np
 
@@ -14,7 +17,7 @@ smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
 KEYS = tuple(RESULT_KEYS.values())
 rows, laws = [], {}
-for material, path in zip(smk.params.materials, smk.input, strict=True):
+for material, path in zip(smk.params.materials, smk.input.params, strict=True):
     fit = read_json(path)
     cells = [material]
     for key in KEYS:
@@ -31,5 +34,10 @@ body = (table_tag(["material", "tau_y (Pa) [95 %]", "K (Pa s^n) [95 %]", "n [95 
         + "<p>* not determined by the recordings (95 % interval wider than a factor 4, or open: < or >, the "
           "materials within the tolerance go on past the fit's reach). Ridge: the evaluated "
           "materials within the tolerance spread over a factor 4 or more in some parameter.</p>"
-        + figure_tag(summary_figure(laws), "recovered flow curves"))
+        + figure_tag(summary_figure(laws), "recovered flow curves")
+        + "<p>Each material's page (frames side by side, flow curve, camera checks): "
+        + ", ".join(f"<a href='{html.escape(str(Path(report).relative_to(Path(smk.output[0]).parent)))}'>"
+                    f"{html.escape(material)}</a>" for material, report in zip(smk.params.materials,
+                                                                                smk.input.reports, strict=True))
+        + ".</p>")
 write_text_atomic(smk.output[0], page("Real dam breaks: twelve materials", body))

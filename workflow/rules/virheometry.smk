@@ -108,7 +108,8 @@ def virheometry_materials() -> list[str]:
 
 rule virheometry_summary:
     input:
-        expand("results/virheometry/{material}/fit/params.json", material=virheometry_materials()),
+        params=expand("results/virheometry/{material}/fit/params.json", material=virheometry_materials()),
+        reports=expand("results/virheometry/{material}/report.html", material=virheometry_materials()),
     output:
         "results/virheometry/summary.html",
     log:
