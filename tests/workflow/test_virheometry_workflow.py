@@ -1,7 +1,8 @@
 """The real dam-break rules in a scratch copy of the workflow: one setup imported, one setup fitted with a small
-search, and the summary's plan over all twelve materials."""
+search, the summary's plan over all twelve materials, and its table from twelve given fits."""
 
 import csv
+import html
 import json
 
 
@@ -45,3 +46,35 @@ def test_the_summary_plans_a_joint_fit_and_a_page_per_material_and_an_import_per
     # Lotion's page also fits each of its setups alone (virheometry.single_setup_fits)
     assert counts == {"virheometry_fit": 14, "virheometry_import": 24, "virheometry_report": 12,
                       "virheometry_summary": 1}
+
+
+def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
+    materials = sorted({p.name.split("_")[1] for p in (workflow.root.parent / "shared/data/virheometry").glob("ref_*")})
+    for i, material in enumerate(materials):
+        fit_dir = workflow.root / f"results/virheometry/{material}/fit"
+        fit_dir.mkdir(parents=True)
+        law = {key: {"value": value * (1 + i), "ci95": [value, value * (2 + i)], "determined": i % 2 == 0,
+                     "ci95_open": [False, i == 3]} for key, value in (("tau_y_Pa", 10.0), ("K_Pa_s_n", 1.0))}
+        law["n"] = {"value": 0.5 + 0.05 * i, "ci95": [0.4, 1.5], "determined": True, "ci95_open": [False, False]}
+        (fit_dir / "params.json").write_text(json.dumps({
+            **law, "setups": {"a": {"silhouette_iou": [0.9, 0.96]}, "b": {"silhouette_iou": [0.98]}},
+            "shear_rate_band_per_s": [0.1 * (i + 1), 20.0], "within_tolerance": {"ridge": i == 5},
+            "runtime_s": 60.0 * (i + 1)}))
+        (fit_dir.parent / "report.html").write_text(f"<html>{material}</html>")
+    run = workflow.run("results/virheometry/summary.html", "--allowed-rules", "virheometry_summary")
+    assert run.returncode == 0, run.stderr[-3000:]
+    page = (workflow.root / "results/virheometry/summary.html").read_text()
+    rows = page.split("<tr>")[2:]  # after the header
+    assert len(materials) == 12 and len(rows) == 12
+    for i, (material, row) in enumerate(zip(materials, rows, strict=True)):
+        cells = [html.unescape(c.split("</td>")[0]) for c in row.split("<td>")[1:]]
+        assert cells[0] == material
+        for cell, value in zip(cells[1:3], (10.0, 1.0), strict=True):  # open ends marked, undetermined starred
+            assert cell == (f"{value * (1 + i):.3g} [{value:.3g}, {'>' if i == 3 else ''}{value * (2 + i):.3g}]"
+                            + ("" if i % 2 == 0 else " *"))
+        assert cells[3] == f"{0.5 + 0.05 * i:.3g} [0.4, 1.5]"
+        assert cells[4] == "0.930, 0.980"  # the mean IoU of each setup
+        assert cells[5] == f"{0.1 * (i + 1):.2g}-20"
+        assert cells[6] == ("yes" if i == 5 else "no") and cells[7] == f"{i + 1:.1f}"  # ridge, runtime (min)
+        assert f"<a href='{material}/report.html'>{material}</a>" in page
+    assert page.count("<img") == 1  # the flow curves of all materials in one plot
