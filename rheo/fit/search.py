@@ -294,7 +294,8 @@ def walk_ends(evaluate_many: Callable[[list[np.ndarray]], list[float]], estimate
     parameters trade against it), a point ``step`` further out is evaluated, and the next while the loss stays
     within ``level`` (``END_STEPS`` at most, not past ``box``); an end moves to the farthest point within the
     level, open where the walk ran out of steps or reached the box. A closed end is then placed
-    between its last point within the level and the first beyond by ``END_HALVINGS`` bisections. A quadratic surface
+    between its last point within the level (the estimate, where the end sat at the box and the box is beyond) and
+    the first beyond by ``END_HALVINGS`` bisections. A quadratic surface
     misjudges a valley that flattens on one side (a viscosity too low to show): its ends fall short where the loss
     itself stays low. Along the axis, with the others held at the estimate, a walk leaves the valley of a trade-off
     at once (the cup's shear modulus, traded against lambda: the axis ended at mu 961, the valley at the truth's
@@ -319,6 +320,8 @@ def walk_ends(evaluate_many: Callable[[list[np.ndarray]], list[float]], estimate
                 if not open_ends[i, side]:
                     still.append((i, side))
             else:
+                if value == extents[i, side]:  # the end was at the box and lies beyond: bisect from the estimate
+                    extents[i, side] = estimate[i]
                 beyond[i, side] = value
         walking = still
     closed = [(i, side) for i, side in zip(*np.nonzero(~np.isnan(beyond)), strict=True)]

@@ -316,3 +316,23 @@ def test_interval_ends_walk_along_the_valley_where_two_parameters_trade(tmp_path
     for i, name in enumerate("ab"):
         interval = result.intervals[name]
         assert np.log([interval.low, interval.high]) - target[i] == pytest.approx([-1.06, 1.06], abs=0.15)
+
+
+def test_an_interval_end_at_the_box_that_the_loss_there_leaves_is_bisected_back_from_the_estimate(tmp_path):
+    """Along c the loss is nearly flat (the surface's region reaches past the box) up to a cliff 0.5 log units below
+    the optimum, inside the box's end at 0.6: the probe at the box loses more than the tolerance, so the end lies
+    between the estimate and the box, not at the box."""
+    target = np.log([1000.0, 50.0, 2.0])
+
+    def losses(points):
+        return [float(FLOOR * np.sqrt(1.0 + 30.0 * np.sum((x[:2] - target[:2]) ** 2) + 0.01 * (x[2] - target[2]) ** 2)
+                      if x[2] - target[2] > -0.5 else 10.0) for x in points]
+
+    log = EvaluationLog(tmp_path / "evaluations.json", "key", one_objective=True)
+    box = (target - np.array([5.0, 5.0, 0.6]), target + 5.0)
+    result = estimate(lambda points, phase: log.evaluate_many(losses, points, phase), [target + 0.05], ["a", "b", "c"],
+                      seen=log.seen, evaluations=100, start_step=0.1, half_width=0.25, rounds=3, tolerance=0.1,
+                      box=box)
+    c = result.intervals["c"]
+    assert -0.5 <= np.log(c.low) - target[2] <= -0.5 + 0.6 / 4  # bisected twice between the estimate and the box
+    assert c.open == (False, True)  # the high end goes on past the walk's reach
