@@ -393,7 +393,7 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
                            for side, end in zip(("low", "high"), ends, strict=True) if end))
     intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)), tuple(ends.tolist()))
                  for n, v, (lo, hi), ends in zip(free_names, y, extents, open_ends, strict=True)}
-    intervals = tolerated(points, losses, tolerance).widen(intervals, free_names)
+    intervals = tolerated(points, losses, tolerance).widen(intervals, free_names, inner)
     evidence = describe_surface(refinement.surface, free_names) | {
         "half_width_log": refinement.half_width, "rounds": refinement.rounds, "converged": refinement.converged,
         "flat": refinement.flat,

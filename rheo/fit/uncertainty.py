@@ -88,12 +88,21 @@ class Tolerated:
         """Whether the materials spread along a ridge: some parameter over at least DETERMINED_SPAN."""
         return self.span >= DETERMINED_SPAN
 
-    def widen(self, intervals: dict[str, Interval], names: Sequence[str]) -> dict[str, Interval]:
+    def widen(self, intervals: dict[str, Interval], names: Sequence[str],
+              box: tuple[np.ndarray, np.ndarray] | None = None) -> dict[str, Interval]:
         """Each interval (of the parameters ``names``, in order) grown to hold these materials' range along its
-        parameter: a conditional profile misses where the parameters trade against each other."""
-        return {name: dataclasses.replace(intervals[name], low=min(intervals[name].low, float(np.exp(low))),
-                                          high=max(intervals[name].high, float(np.exp(high))))
-                for name, (low, high) in zip(names, self.ranges, strict=True)}
+        parameter: a conditional profile misses where the parameters trade against each other. An end where one of
+        them lies at the search ``box`` (log-parameters, low and high) is open: the region goes on past the fit's
+        reach."""
+        widened = {}
+        for i, (name, (low, high)) in enumerate(zip(names, self.ranges, strict=True)):
+            interval = intervals[name]
+            at_box = (False, False) if box is None else (bool(np.isclose(low, box[0][i])),
+                                                          bool(np.isclose(high, box[1][i])))
+            widened[name] = dataclasses.replace(
+                interval, low=min(interval.low, float(np.exp(low))), high=max(interval.high, float(np.exp(high))),
+                open=(interval.open[0] or at_box[0], interval.open[1] or at_box[1]))
+        return widened
 
 
 def tolerated(points: np.ndarray, losses: np.ndarray, tolerance: float) -> Tolerated:

@@ -60,3 +60,15 @@ def test_intervals_grow_to_the_materials_within_the_tolerance_along_a_ridge():
     # along the ridge tau_y and K reach far beyond their conditional intervals; n does not trade with them
     assert widened["tau_y"].high / widened["tau_y"].low > 4 * conditional["tau_y"].high / conditional["tau_y"].low
     assert not widened["tau_y"].determined and conditional["tau_y"].determined
+
+
+def test_an_end_that_a_material_within_the_tolerance_holds_at_the_box_is_open():
+    points = np.array([[0.0, 0.0, 0.0], [-1.0, 0.5, 0.0], [0.3, -0.2, 0.1]])
+    found = tolerated(points, np.array([1.0, 1.05, 1.5]), TOLERANCE)  # the third lies beyond the tolerance
+    names = ("tau_y", "K", "n")
+    narrow = {name: Interval(1.0, np.exp(-0.1), np.exp(0.1)) for name in names}
+    widened = found.widen(narrow, names, (np.array([-1.0, -2.0, -2.0]), np.array([2.0, 0.5, 0.3])))
+    assert widened["tau_y"].open == (True, False) and widened["tau_y"].low == pytest.approx(np.exp(-1.0))
+    assert widened["K"].open == (False, True) and not widened["K"].determined
+    assert widened["n"].open == (False, False)  # no material within the tolerance at n's box
+    assert found.widen(narrow, names)["tau_y"].open == (False, False)  # no box given, no end known at it
