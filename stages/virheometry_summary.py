@@ -1,7 +1,6 @@
 """virheometry_summary: every material's recovered law in one table (values, intervals, IoU, shear-rate band,
 runtime) and one plot of all flow curves, with a link to each material's page."""
 
-import html
 from pathlib import Path
 
 import numpy as np
@@ -9,15 +8,16 @@ import numpy as np
 from rheo.fit.dam_break import RESULT_KEYS
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import interval_text
-from rheo.report.html import figure_tag, page, table_tag
+from rheo.report.html import figure_tag, link_tag, page, table_tag
 from rheo.report.virheometry import summary_figure
 from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
 KEYS = tuple(RESULT_KEYS.values())
-rows, laws = [], {}
-for material, path in zip(smk.params.materials, smk.input.params, strict=True):
+output = Path(smk.output[0])
+rows, laws, links = [], {}, []
+for material, path, report in zip(smk.params.materials, smk.input.params, smk.input.reports, strict=True):
     fit = read_json(path)
     cells = [material]
     for key in KEYS:
@@ -29,15 +29,12 @@ for material, path in zip(smk.params.materials, smk.input.params, strict=True):
               "yes" if fit["within_tolerance"]["ridge"] else "no", f"{fit['runtime_s'] / 60:.1f}"]
     rows.append(cells)
     laws[material] = (tuple(fit[k]["value"] for k in KEYS), None if band is None else tuple(band))
+    links.append(link_tag(str(Path(report).relative_to(output.parent)), material))
 body = (table_tag(["material", "tau_y (Pa) [95 %]", "K (Pa s^n) [95 %]", "n [95 %]", "mean IoU per setup",
                    "shear rates reached (1/s)", "ridge", "runtime (min)"], rows)
         + "<p>* not determined by the recordings (95 % interval wider than a factor 4, or open: < or >, the "
           "materials within the tolerance go on past the fit's reach). Ridge: the evaluated "
           "materials within the tolerance spread over a factor 4 or more in some parameter.</p>"
         + figure_tag(summary_figure(laws), "recovered flow curves")
-        + "<p>Each material's page (frames side by side, flow curve, camera checks): "
-        + ", ".join(f"<a href='{html.escape(str(Path(report).relative_to(Path(smk.output[0]).parent)))}'>"
-                    f"{html.escape(material)}</a>" for material, report in zip(smk.params.materials,
-                                                                                smk.input.reports, strict=True))
-        + ".</p>")
-write_text_atomic(smk.output[0], page("Real dam breaks: twelve materials", body))
+        + f"<p>Each material's page (frames side by side, flow curve, camera checks): {', '.join(links)}.</p>")
+write_text_atomic(output, page("Real dam breaks: twelve materials", body))

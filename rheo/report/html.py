@@ -31,6 +31,10 @@ def figure_tag(fig, caption: str) -> str:
     return image_tag(buf.getvalue(), "png", caption)
 
 
+def link_tag(href: str, text: str) -> str:
+    return f"<a href='{html.escape(href)}'>{html.escape(text)}</a>"
+
+
 def table_tag(header: list[str], rows: list[list[str]], row_classes: list[str] | None = None) -> str:
     head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
     body = []
