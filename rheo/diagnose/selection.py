@@ -76,7 +76,9 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
     starts from the law matched to the last rung's (``Candidate.rung_start``, over the base flow's shear-rate
     ``band``). A branch stops climbing once a rung's loss exceeds the best so far by ``STOP_RISE``; then a rung
     halfway (on the search coordinate) between the branch's best and the next one out is refitted too, started
-    from both their laws."""
+    from both their laws. Where that halfway rung beats every rung, the rung out had likely been started off the
+    valley (which bends there: walls that hold the material need a weaker one, but only once they hold it firmly),
+    so the branch climbs once more from the halfway rung, and refits halfway again if that climb found more."""
     phase = f"refit {candidate.name}"
 
     def refit_at(rung: float, starts: list[np.ndarray]) -> tuple[float, np.ndarray]:
@@ -97,12 +99,11 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
         law = candidate.rung_start(fitted[1], candidate.value(fitted[0]), candidate.value(rung), band)
         return [] if law is None else [law]
 
-    null = candidate.nearest_null
-    lowest = evaluate(np.r_[base_x, null], phase)
-    profile = [(candidate.value(null), lowest)]
-    for branch in candidate.rungs:
-        path = [(null, base_x, lowest)]
-        for value in branch:
+    def climb(path: list[tuple[float, np.ndarray, float]], values: Sequence[float]) -> None:
+        """Refit rung after rung outward, each from the law extrapolated along ``path`` (coordinate, law, loss),
+        until a rung's loss exceeds the lowest so far by ``STOP_RISE``."""
+        nonlocal lowest
+        for value in values:
             rung = candidate.coordinate(value)
             starts = [path[-1][1]]
             if len(path) > 1:
@@ -112,17 +113,40 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
             path.append((rung, law, loss))
             profile.append((value, loss))
             if loss > STOP_RISE * lowest:
-                break
+                return
             lowest = min(lowest, loss)
-        # the rungs are a factor 3 apart: between the branch's best and the next one out, which lost more
-        k = min(range(len(path)), key=lambda i: path[i][2])
-        if k + 1 < len(path):
-            (c0, x0, _), (c1, x1, _) = path[k:k + 2]
+
+    null = candidate.nearest_null
+    lowest = evaluate(np.r_[base_x, null], phase)
+    profile = [(candidate.value(null), lowest)]
+    for branch in candidate.rungs:
+        path = [(null, base_x, lowest)]
+        climb(path, branch)
+        retried = False
+        while True:
+            # the rungs are a factor 3 apart: between the branch's best and the next one out, which lost more
+            k = min(range(len(path)), key=lambda i: path[i][2])
+            if k + 1 == len(path):
+                break
+            (c0, x0, loss0), (c1, x1, _) = path[k:k + 2]
             middle = 0.5 * (c0 + c1)
-            loss, _ = refit_at(middle, [x0, x1, *matched_start(path[k], middle)])
+            loss, law = refit_at(middle, [x0, x1, *matched_start(path[k], middle)])
             profile.append((candidate.value(middle), loss))
             lowest = min(lowest, loss)
-    return dataclasses.replace(Refit.of(candidate.name, best(phase)), profile=tuple(sorted(profile)))
+            if retried or loss >= loss0:
+                break
+            # the halfway rung beat every rung: the valley may run on past it, the rung out refitted from a start
+            # off it; climb again from the halfway rung (once), and refit halfway again only if that found more
+            retried = True
+            del path[k + 1:]
+            path.append((middle, law, loss))
+            climb(path, branch[k:])
+            if min(range(len(path)), key=lambda i: path[i][2]) == k + 1:
+                break
+    lowest_at = {}  # a rung climbed twice keeps its lower loss
+    for value, loss in profile:
+        lowest_at[value] = min(loss, lowest_at.get(value, loss))
+    return dataclasses.replace(Refit.of(candidate.name, best(phase)), profile=tuple(sorted(lowest_at.items())))
 
 
 def refits(candidates: Sequence[Candidate], search: Callable[[Candidate], Refit], side_by_side: int) -> list[Refit]:

@@ -146,6 +146,28 @@ def test_a_profile_refits_halfway_between_its_best_rung_and_the_next(tmp_path):
     assert candidate.value(refit.x[2]) == pytest.approx(math.sqrt(75.0)) and refit.loss < 0.03  # 5 Pa: 0.45
 
 
+def test_a_profile_climbs_again_from_a_halfway_rung_that_beats_every_rung(tmp_path):
+    """Walls adhering with 20 Pa, which the base fit compensated with a stronger law; the law that fits moves only
+    past 5 Pa, then steadily (log-linearly) to the truth's. Started on the line through the base fit and the
+    5 Pa rung, a short refit at 15 Pa stays off the valley and loses more than at 5 Pa, while the rung halfway
+    (8.7 Pa) beats both; climbing again from there, 15 Pa comes within 1.5 times the truth's loss (without the
+    climb again, the profile ended at 8.7 Pa, 5 times the truth's loss)."""
+    candidate = CANDIDATES["wall_adhesion"]
+    base_x, truth_x = np.log([14.0, 4.5]), np.log([20.0, 1.5])
+    knee, target = math.log(5.0), candidate.coordinate(20.0)
+
+    def loss(p: np.ndarray) -> float:
+        along = min(max((p[2] - knee) / (target - knee), 0.0), 1.0)
+        valley = base_x + (truth_x - base_x) * along
+        return 0.004 + 0.5 * float(np.sum((p[:2] - valley) ** 2)) + 0.01 * (p[2] - target) ** 2
+
+    log = EvaluationLog(tmp_path / "log.json", "key")
+    refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, 0.3, 5)
+    profile = dict(refit.profile)
+    assert candidate.value(refit.x[2]) >= 15.0 - 1e-9 and refit.loss < 1.5 * 0.004
+    assert list(profile) == sorted(set(profile))  # the rung climbed twice is listed once, at its lower loss
+
+
 @pytest.mark.parametrize("name", ["shear_thinning", "thixotropy", "floor_friction", "gravity_tilt"])
 def test_a_refit_is_never_worse_than_the_base_fit_with_the_effect_at_its_null(tmp_path, name):
     """A loss that any amount of the effect worsens, on a rough law landscape whose best lies at the base fit: the
