@@ -80,6 +80,10 @@ class Candidate:
                 return law, dataclasses.replace(effects, density_factor=value)
         raise ValueError(f"unknown effect {self.name!r}")
 
+    def flow_index(self, value: float, base: float) -> float:
+        """The law's flow index with the effect at ``value``: shear thinning sets it, the others leave ``base``."""
+        return value if self.name == "shear_thinning" else base
+
     def rung_start(self, law: np.ndarray, value: float, next_value: float,
                    band: tuple[float, float] | None) -> np.ndarray | None:
         """Where the law (log tau_y, log K) refitted at ``next_value`` may start, given the law fitted at ``value``;

@@ -119,8 +119,9 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
     """Diagnose the fit ``base_values`` (tau_y, K, n; 95 % intervals ``base_intervals``) of the ``setups`` (name:
     (setup.json, masks.npz)), fitted with ``fit_settings`` (its boxes, its fixed flow index) on ``simulation``'s grid.
     ``settings``: ``candidates`` (names), ``rung_evaluations`` (the law's refit at each rung of a profile),
-    ``refit_evaluations``, ``law_step`` (largest initial simplex of the law, log units; ``law_steps``), ``evidence``
-    (least drop of the criterion)."""
+    ``stress_step`` and ``share_step`` (its initial simplex in the law's stress and the yield stress' share of it,
+    log units), ``refit_evaluations``, ``law_step`` (largest initial simplex of the law in the winner's refit, log
+    units; ``law_steps``), ``evidence`` (least drop of the criterion)."""
     records = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:
@@ -153,8 +154,10 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
                                                         "base")[0])
         base = Refit.of("base", log.record("base", x_base))
         band = shear_rate_band(list(before.values()))
+        split_step = (settings["stress_step"], settings["share_step"])
         found = refits(candidates, lambda c: profile_refit(c, evaluate(c.name), log.best, x_base, law_box,
-                                                           steps, settings["rung_evaluations"], band),
+                                                           split_step, settings["rung_evaluations"], band,
+                                                           law.n or 1.0),
                        workers)  # a candidate per worker: a small setup's simulation does not wait for a large one
         for r in sorted(found, key=lambda r: r.criterion):
             logger.info("%s: loss %.4g px (base %.4g), criterion %+.2f", r.name, r.loss, base.loss,

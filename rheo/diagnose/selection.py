@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rheo.diagnose.candidates import Candidate
+from rheo.fit.dam_break import from_stress_split, stress_split
 from rheo.fit.search import simplex_search
 
 STOP_RISE = 1.25  # a profile stops climbing once a rung's loss exceeds the lowest so far by this factor
@@ -63,23 +64,25 @@ Best = Callable[[str], dict]
 
 
 def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: np.ndarray,
-                  law_box: tuple[np.ndarray, np.ndarray], law_step: float | np.ndarray, rung_evaluations: int,
-                  band: tuple[float, float] | None = None) -> Refit:
-    """The candidate's best fit along its profile: from the base fit with the effect at its null (or the nearest
-    the box allows, so that the refit, a model holding the base one, ends no worse), the effect climbs its rungs of
-    magnitude and the law is refitted at each by a short Nelder-Mead search (``rung_evaluations``, initial simplex
-    ``law_step``). An effect the base fit compensated with a very different law (a slow gate with a strong
-    material, say) needs that law moved far: each rung starts from the law extrapolated from the two before
-    (continuation along the valley), unless the previous rung's law or the base fit's does better there (where
-    the valley turns: a sliding floor first lowers the yield stress that held the material back, then, once the
-    material slides, needs it back). An effect that changes what the law's parameters mean (shear thinning) also
-    starts from the law matched to the last rung's (``Candidate.rung_start``, over the base flow's shear-rate
-    ``band``). A branch stops climbing once a rung's loss exceeds the best so far by ``STOP_RISE``; then a rung
-    halfway (on the search coordinate) between the branch's best and the next one out is refitted too, started
-    from both their laws. Where that halfway rung beats every rung, the rung out had likely been started off the
-    valley (which bends there: walls that hold the material need a weaker one, but only once they hold it firmly),
-    so the branch climbs once more from the halfway rung, and refits halfway again if that climb found more."""
+                  law_box: tuple[np.ndarray, np.ndarray], split_step: tuple[float, float], rung_evaluations: int,
+                  band: tuple[float, float] | None = None, flow_index: float = 1.0) -> Refit:
+    """The candidate's best fit along its profile: from the base fit with the effect at its null (or the nearest the box
+    allows, so that the refit, a model holding the base one, ends no worse), the effect climbs its rungs of magnitude
+    and the law is refitted at each by a short Nelder-Mead search (``rung_evaluations``) in the law's stress at the
+    middle of the shear-rate ``band`` and the yield stress' share of it (``stress_split``; initial simplex
+    ``split_step``, log units): the silhouettes fix that stress tightly and the share loosely, so an effect moves the
+    law along that valley, often far (walls adhering with 20 Pa, which the base fit answered with tau_y 14.3 and K 4.5
+    Pa s, ask for 20 and 1.5). ``flow_index``: the law's n where ``base_x`` holds no log n (shear thinning's rung gives
+    its own). An effect the base fit compensated with a very different law (a slow gate with a strong material, say)
+    needs that law moved far: each rung starts from the law extrapolated from the two before (continuation along the
+    valley), unless the previous rung's law or the base fit's does better there (where the valley turns: a sliding floor
+    first lowers the yield stress that held the material back, then, once the material slides, needs it back). An effect
+    that changes what the law's parameters mean (shear thinning) also starts from the law matched to the last rung's
+    (``Candidate.rung_start``, over the base flow's shear-rate ``band``). A branch stops climbing once a rung's loss
+    exceeds the best so far by ``STOP_RISE``; then a rung halfway (on the search coordinate) between the branch's best
+    and the next one out is refitted too, started from both their laws."""
     phase = f"refit {candidate.name}"
+    rate = 1.0 if band is None else math.sqrt(band[0] * band[1])
 
     def refit_at(rung: float, starts: list[np.ndarray]) -> tuple[float, np.ndarray]:
         """The lowest loss and its law with the effect at ``rung``: the best of ``starts``, then a short search."""
@@ -90,8 +93,16 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
             found.append((loss, np.asarray(y)))
             return loss
 
+        def n_of(y: np.ndarray) -> float:  # a law's flow index: its own log n, the rung's, or the fixed one
+            return math.exp(y[2]) if len(y) > 2 else candidate.flow_index(candidate.value(rung), flow_index)
+
+        def from_split(z: np.ndarray) -> np.ndarray:
+            return np.clip(np.r_[from_stress_split(z[:2], n_of(z), rate)[:2], z[2:]], *law_box)
+
         start = min((np.clip(x, *law_box) for x in starts), key=lambda x: at_rung(x, phase))
-        simplex_search(at_rung, start, law_step, rung_evaluations, phase, box=law_box)
+        z = np.r_[stress_split(np.r_[start[:2], math.log(n_of(start))], rate), start[2:]]
+        step = np.r_[split_step, np.full(len(start) - 2, split_step[0])]
+        simplex_search(lambda z, ph: at_rung(from_split(z), ph), z, step, rung_evaluations, phase)
         return min(found, key=lambda f: f[0])
 
     def matched_start(fitted: tuple[float, np.ndarray, float], rung: float) -> list[np.ndarray]:
@@ -99,11 +110,12 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
         law = candidate.rung_start(fitted[1], candidate.value(fitted[0]), candidate.value(rung), band)
         return [] if law is None else [law]
 
-    def climb(path: list[tuple[float, np.ndarray, float]], values: Sequence[float]) -> None:
-        """Refit rung after rung outward, each from the law extrapolated along ``path`` (coordinate, law, loss),
-        until a rung's loss exceeds the lowest so far by ``STOP_RISE``."""
-        nonlocal lowest
-        for value in values:
+    null = candidate.nearest_null
+    lowest = evaluate(np.r_[base_x, null], phase)
+    profile = [(candidate.value(null), lowest)]
+    for branch in candidate.rungs:
+        path = [(null, base_x, lowest)]
+        for value in branch:
             rung = candidate.coordinate(value)
             starts = [path[-1][1]]
             if len(path) > 1:
@@ -113,40 +125,17 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
             path.append((rung, law, loss))
             profile.append((value, loss))
             if loss > STOP_RISE * lowest:
-                return
-            lowest = min(lowest, loss)
-
-    null = candidate.nearest_null
-    lowest = evaluate(np.r_[base_x, null], phase)
-    profile = [(candidate.value(null), lowest)]
-    for branch in candidate.rungs:
-        path = [(null, base_x, lowest)]
-        climb(path, branch)
-        retried = False
-        while True:
-            # the rungs are a factor 3 apart: between the branch's best and the next one out, which lost more
-            k = min(range(len(path)), key=lambda i: path[i][2])
-            if k + 1 == len(path):
                 break
-            (c0, x0, loss0), (c1, x1, _) = path[k:k + 2]
+            lowest = min(lowest, loss)
+        # the rungs are a factor 3 apart: between the branch's best and the next one out, which lost more
+        k = min(range(len(path)), key=lambda i: path[i][2])
+        if k + 1 < len(path):
+            (c0, x0, _), (c1, x1, _) = path[k:k + 2]
             middle = 0.5 * (c0 + c1)
-            loss, law = refit_at(middle, [x0, x1, *matched_start(path[k], middle)])
+            loss, _ = refit_at(middle, [x0, x1, *matched_start(path[k], middle)])
             profile.append((candidate.value(middle), loss))
             lowest = min(lowest, loss)
-            if retried or loss >= loss0:
-                break
-            # the halfway rung beat every rung: the valley may run on past it, the rung out refitted from a start
-            # off it; climb again from the halfway rung (once), and refit halfway again only if that found more
-            retried = True
-            del path[k + 1:]
-            path.append((middle, law, loss))
-            climb(path, branch[k:])
-            if min(range(len(path)), key=lambda i: path[i][2]) == k + 1:
-                break
-    lowest_at = {}  # a rung climbed twice keeps its lower loss
-    for value, loss in profile:
-        lowest_at[value] = min(loss, lowest_at.get(value, loss))
-    return dataclasses.replace(Refit.of(candidate.name, best(phase)), profile=tuple(sorted(lowest_at.items())))
+    return dataclasses.replace(Refit.of(candidate.name, best(phase)), profile=tuple(sorted(profile)))
 
 
 def refits(candidates: Sequence[Candidate], search: Callable[[Candidate], Refit], side_by_side: int) -> list[Refit]:
