@@ -19,6 +19,7 @@ from scipy.optimize import nnls
 from rheo.experiments.dam_break import Effects
 
 BAND_POINTS = 9  # shear rates, log-spaced over the band, at which a rung's law matches the last rung's stresses
+BREAKDOWN_STRAINS = (1.0, 3.0, 10.0)  # plastic strains whose breakdown a thixotropy rung's starts restore
 
 
 @dataclass(frozen=True)
@@ -84,15 +85,22 @@ class Candidate:
         """The law's flow index with the effect at ``value``: shear thinning sets it, the others leave ``base``."""
         return value if self.name == "shear_thinning" else base
 
-    def rung_start(self, law: np.ndarray, value: float, next_value: float,
-                   band: tuple[float, float] | None) -> np.ndarray | None:
-        """Where the law (log tau_y, log K) refitted at ``next_value`` may start, given the law fitted at ``value``;
-        None when the effect leaves the law's meaning alone. Shear thinning changes what K means: at another flow
-        index the same K is another stress at the flow's shear rates, so the law starts where its flow curve matches
-        the last one over the shear-rate ``band`` (1/s) that the base fit's flow reaches."""
-        if self.name != "shear_thinning" or band is None:
-            return None
-        return matched_law(law, value, next_value, band)
+    def rung_starts(self, law: np.ndarray, value: float, next_value: float, band: tuple[float, float] | None,
+                    base_law: np.ndarray) -> list[np.ndarray]:
+        """Where the law (log tau_y, log K) refitted at ``next_value`` may start besides the laws along the path,
+        given the law fitted at ``value`` and the base fit's ``base_law``: none unless the effect changes what the
+        law's parameters mean. Shear thinning changes what K means: at another flow index the same K is another
+        stress at the flow's shear rates, so the law starts where its flow curve matches the last one over the
+        shear-rate ``band`` (1/s) that the base fit's flow reaches. Thixotropy changes what tau_y means: the base
+        fit's is what the broken-down material showed, the intact material's is larger by what a plastic strain of
+        a few units takes away (``BREAKDOWN_STRAINS``), which no short search from the base law reaches (on the way
+        the loss rises: concealed thixotropy 1.0 with tau_y 20, base fit 0.5; at 1.0, 0.013 px at 0.5 Pa, 0.016 at
+        5, 0.0068 at 20)."""
+        if self.name == "shear_thinning" and band is not None:
+            return [matched_law(law, value, next_value, band)]
+        if self.name == "thixotropy":
+            return [base_law + np.array([next_value * strain, 0.0]) for strain in BREAKDOWN_STRAINS]
+        return []
 
 
 CANDIDATES: dict[str, Candidate] = {c.name: c for c in (

@@ -77,8 +77,9 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
     needs that law moved far: each rung starts from the law extrapolated from the two before (continuation along the
     valley), unless the previous rung's law or the base fit's does better there (where the valley turns: a sliding floor
     first lowers the yield stress that held the material back, then, once the material slides, needs it back). An effect
-    that changes what the law's parameters mean (shear thinning) also starts from the law matched to the last rung's
-    (``Candidate.rung_start``, over the base flow's shear-rate ``band``). A branch stops climbing once a rung's loss
+    that changes what the law's parameters mean also starts from the laws ``Candidate.rung_starts`` gives (shear
+    thinning: the last rung's flow curve over the base flow's shear-rate ``band``; thixotropy: the base fit's yield
+    stress with its breakdown restored). A branch stops climbing once a rung's loss
     exceeds the best so far by ``STOP_RISE``; then a rung halfway (on the search coordinate) between the branch's best
     and the next one out is refitted too, started from both their laws."""
     phase = f"refit {candidate.name}"
@@ -106,9 +107,8 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
         return min(found, key=lambda f: f[0])
 
     def matched_start(fitted: tuple[float, np.ndarray, float], rung: float) -> list[np.ndarray]:
-        """The law ``Candidate.rung_start`` gives at ``rung`` from a fitted rung (coordinate, law, loss), if any."""
-        law = candidate.rung_start(fitted[1], candidate.value(fitted[0]), candidate.value(rung), band)
-        return [] if law is None else [law]
+        """The laws ``Candidate.rung_starts`` gives at ``rung`` from a fitted rung (coordinate, law, loss)."""
+        return candidate.rung_starts(fitted[1], candidate.value(fitted[0]), candidate.value(rung), band, base_x)
 
     null = candidate.nearest_null
     lowest = evaluate(np.r_[base_x, null], phase)

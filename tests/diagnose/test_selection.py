@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from rheo.diagnose.candidates import CANDIDATES, Law, matched_law
+from rheo.diagnose.candidates import BREAKDOWN_STRAINS, CANDIDATES, Law, matched_law
 from rheo.diagnose.dam_break import MIN_LAW_STEP, law_steps
 from rheo.diagnose.selection import Refit, choose, information_criterion, profile_refit
 from rheo.experiments.dam_break import Effects
@@ -179,6 +179,28 @@ def test_a_profile_moves_the_law_far_along_the_valley_of_equal_stress(tmp_path):
     assert np.exp(refit.x[:2]) == pytest.approx([20.0, 1.5], rel=0.3)
 
 
+def test_a_thixotropy_profile_starts_from_the_intact_materials_yield_stress(tmp_path):
+    """Concealed thixotropy 1.0 of a material of tau_y 20 Pa, which the base fit saw broken down (0.5 Pa): the law
+    that fits at each breakdown rate has the yield stress that a plastic strain of 3.7 takes away restored, and a
+    basin around the base fit's law, where thixotropy acts on a yield stress too small to matter, holds every short
+    search started there. Started also from the base law with that breakdown restored, the profile reaches the truth's
+    neighbourhood."""
+    candidate = CANDIDATES["thixotropy"]
+    base_x = np.log([0.5, 1.7])
+    target = candidate.coordinate(1.0)
+
+    def loss(p: np.ndarray) -> float:
+        valley = base_x + np.array([3.7 * candidate.value(p[2]), 0.0])
+        intact = 0.0068 + 0.02 * (p[2] - target) ** 2 + 0.005 * float(np.sum((p[:2] - valley) ** 2))
+        return min(0.013 + 0.002 * float(np.sum((p[:2] - base_x) ** 2)), intact + 0.01 * (intact > 0.011))
+
+    starts = candidate.rung_starts(base_x, 0.3, 1.0, None, base_x)
+    assert np.allclose(starts, [base_x + np.array([strain, 0.0]) for strain in BREAKDOWN_STRAINS])
+    log = EvaluationLog(tmp_path / "log.json", "key")
+    refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, SPLIT_STEP, 5)
+    assert 0.3 <= candidate.value(refit.x[2]) <= 3.0 and refit.loss < 0.009
+
+
 @pytest.mark.parametrize("name", ["shear_thinning", "thixotropy", "floor_friction", "gravity_tilt"])
 def test_a_refit_is_never_worse_than_the_base_fit_with_the_effect_at_its_null(tmp_path, name):
     """A loss that any amount of the effect worsens, on a rough law landscape whose best lies at the base fit: the
@@ -194,7 +216,9 @@ def test_a_refit_is_never_worse_than_the_base_fit_with_the_effect_at_its_null(tm
     log = EvaluationLog(tmp_path / "log.json", "key")
     refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, SPLIT_STEP, 5)
     assert refit.loss == pytest.approx(0.02) and refit.x[2] == candidate.nearest_null
-    assert len(log.records) <= 1 + (5 + 7) * len(candidate.rungs)  # a rung and one halfway to it, each branch
+    # a rung and one halfway to it, each branch, and the candidate's own starts at both
+    extra = len(candidate.rung_starts(base_x, 1.0, 1.0, None, base_x))
+    assert len(log.records) <= 1 + (5 + 7 + 2 * extra) * len(candidate.rungs)
 
 
 def test_candidates_at_their_null_values_give_back_the_base_law_and_effects():
