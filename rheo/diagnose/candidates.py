@@ -99,7 +99,7 @@ class Candidate:
         if self.name == "shear_thinning" and band is not None:
             return [matched_law(law, value, next_value, band)]
         if self.name == "thixotropy":
-            return [base_law + np.array([next_value * strain, 0.0]) for strain in BREAKDOWN_STRAINS]
+            return [np.r_[base_law[0] + next_value * strain, base_law[1:]] for strain in BREAKDOWN_STRAINS]
         return []
 
 

@@ -79,9 +79,9 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
     first lowers the yield stress that held the material back, then, once the material slides, needs it back). An effect
     that changes what the law's parameters mean also starts from the laws ``Candidate.rung_starts`` gives (shear
     thinning: the last rung's flow curve over the base flow's shear-rate ``band``; thixotropy: the base fit's yield
-    stress with its breakdown restored). A branch stops climbing once a rung's loss
-    exceeds the best so far by ``STOP_RISE``; then a rung halfway (on the search coordinate) between the branch's best
-    and the next one out is refitted too, started from both their laws."""
+    stress with its breakdown restored). A branch stops climbing once a rung's loss exceeds the best so far by
+    ``STOP_RISE``; then a rung halfway (on the search coordinate) between the branch's best and the next one out is
+    refitted too, started from both their laws."""
     phase = f"refit {candidate.name}"
     rate = 1.0 if band is None else math.sqrt(band[0] * band[1])
 
@@ -106,7 +106,7 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
         simplex_search(lambda z, ph: at_rung(from_split(z), ph), z, step, rung_evaluations, phase)
         return min(found, key=lambda f: f[0])
 
-    def matched_start(fitted: tuple[float, np.ndarray, float], rung: float) -> list[np.ndarray]:
+    def effect_starts(fitted: tuple[float, np.ndarray, float], rung: float) -> list[np.ndarray]:
         """The laws ``Candidate.rung_starts`` gives at ``rung`` from a fitted rung (coordinate, law, loss)."""
         return candidate.rung_starts(fitted[1], candidate.value(fitted[0]), candidate.value(rung), band, base_x)
 
@@ -121,7 +121,7 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
             if len(path) > 1:
                 (c0, x0, _), (c1, x1, _) = path[-2:]
                 starts = [x1 + (x1 - x0) * (rung - c1) / (c1 - c0), x1, base_x]
-            loss, law = refit_at(rung, starts + matched_start(path[-1], rung))
+            loss, law = refit_at(rung, starts + effect_starts(path[-1], rung))
             path.append((rung, law, loss))
             profile.append((value, loss))
             if loss > STOP_RISE * lowest:
@@ -132,7 +132,7 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
         if k + 1 < len(path):
             (c0, x0, _), (c1, x1, _) = path[k:k + 2]
             middle = 0.5 * (c0 + c1)
-            loss, _ = refit_at(middle, [x0, x1, *matched_start(path[k], middle)])
+            loss, _ = refit_at(middle, [x0, x1, *effect_starts(path[k], middle)])
             profile.append((candidate.value(middle), loss))
             lowest = min(lowest, loss)
     return dataclasses.replace(Refit.of(candidate.name, best(phase)), profile=tuple(sorted(profile)))
