@@ -8,6 +8,7 @@ refitted with more evaluations. Every evaluation is stored, so an interrupted di
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 from collections.abc import Callable
@@ -18,7 +19,7 @@ import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES, Candidate, Law
 from rheo.diagnose.residuals import Location, locate
-from rheo.diagnose.selection import Refit, choose, profile_refit, refits
+from rheo.diagnose.selection import Refit, choose, finalists_refitted, profile_refit, refits
 from rheo.experiments.virheometry import Setup
 from rheo.fit.dam_break import Comparison, compare_law, shear_rate_band, targets
 from rheo.fit.parallel import Evaluator
@@ -120,8 +121,9 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
     (setup.json, masks.npz)), fitted with ``fit_settings`` (its boxes, its fixed flow index) on ``simulation``'s grid.
     ``settings``: ``candidates`` (names), ``rung_evaluations`` (the law's refit at each rung of a profile),
     ``stress_step`` and ``share_step`` (its initial simplex in the law's stress and the yield stress' share of it,
-    log units), ``refit_evaluations``, ``law_step`` (largest initial simplex of the law in the winner's refit, log
-    units; ``law_steps``), ``evidence`` (least drop of the criterion)."""
+    log units), ``finalists`` (the candidates of lowest criterion refitted with every parameter free before the
+    choice), ``refit_evaluations`` (each such refit), ``law_step`` (largest initial simplex of the law in those refits,
+    log units; ``law_steps``), ``evidence`` (least drop of the criterion)."""
     records = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:
@@ -159,18 +161,23 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
                                                            split_step, settings["rung_evaluations"], band,
                                                            law.n or 1.0),
                        workers)  # a candidate per worker: a small setup's simulation does not wait for a large one
+
+        def refit_free(profiled: Refit) -> Refit:
+            """A longer search from a profile's best point with the law and the effect free."""
+            candidate, phase = CANDIDATES[profiled.name], f"final {profiled.name}"
+            low, high = candidate.bounds
+            box = (np.r_[law_box[0], low], np.r_[law_box[1], high])
+            simplex_search(evaluate(profiled.name), profiled.x, np.r_[0.5 * steps, 0.5 * candidate.step],
+                           settings["refit_evaluations"], phase, box=box)
+            final = Refit.of(profiled.name, log.best(phase))
+            return dataclasses.replace(final, profile=profiled.profile) if final.loss <= profiled.loss else profiled
+
+        if settings["refit_evaluations"] > 0:
+            found = finalists_refitted(found, refit_free, settings["finalists"], workers)
         for r in sorted(found, key=lambda r: r.criterion):
             logger.info("%s: loss %.4g px (base %.4g), criterion %+.2f", r.name, r.loss, base.loss,
                         r.criterion - base.criterion)
         chosen = choose(base, found, settings["evidence"])
-        if chosen is not None and settings["refit_evaluations"] > 0:
-            candidate = CANDIDATES[chosen.name]
-            low, high = candidate.bounds
-            box = (np.r_[law_box[0], low], np.r_[law_box[1], high])
-            simplex_search(evaluate(chosen.name), chosen.x, np.r_[0.5 * steps, 0.5 * candidate.step],
-                           settings["refit_evaluations"], f"final {chosen.name}", box=box)
-            final = Refit.of(chosen.name, log.best(f"final {chosen.name}"))
-            chosen = final if final.loss <= chosen.loss else chosen
         after = before if chosen is None else dict(zip(setups, evaluator.map(
             [(f"{chosen.name}|{s}", chosen.x) for s in setups]), strict=True))
     location = {}

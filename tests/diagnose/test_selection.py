@@ -8,7 +8,7 @@ import pytest
 
 from rheo.diagnose.candidates import BREAKDOWN_STRAINS, CANDIDATES, Law, matched_law
 from rheo.diagnose.dam_break import MIN_LAW_STEP, law_steps
-from rheo.diagnose.selection import Refit, choose, information_criterion, profile_refit
+from rheo.diagnose.selection import Refit, choose, finalists_refitted, information_criterion, profile_refit
 from rheo.experiments.dam_break import Effects
 from rheo.fit.dam_break import stress_split
 from rheo.fit.search import EvaluationLog
@@ -38,6 +38,21 @@ def test_an_effect_is_named_only_when_it_pays_for_its_parameter():
     assert choose(base, [weak, strong], EVIDENCE) is strong
     assert choose(base, [], EVIDENCE) is None
     assert strong.criterion < base.criterion - EVIDENCE
+
+
+def test_the_finalists_are_refitted_before_the_choice():
+    """Air drag's profile ends just short of the decoy's criterion; refitted with every parameter free, it halves its
+    residual and wins. Only the finalists are refitted; with one finalist the decoy is named."""
+    base = _refit("base", 1.0, 2)
+    found = [_refit("gravity_tilt", 0.40, 3), _refit("air_drag", 0.41, 3), _refit("density", 0.9, 3)]
+
+    def refit(r: Refit) -> Refit:
+        return _refit(r.name, r.loss / 2 if r.name == "air_drag" else r.loss * 0.99, 3)
+
+    two = finalists_refitted(found, refit, 2, 1)
+    assert choose(base, two, EVIDENCE).name == "air_drag"
+    assert {r.name: r.loss for r in two} == pytest.approx({"gravity_tilt": 0.396, "air_drag": 0.205, "density": 0.9})
+    assert choose(base, finalists_refitted(found, refit, 1, 1), EVIDENCE).name == "gravity_tilt"
 
 
 def _logged(log: EvaluationLog, loss):
