@@ -72,7 +72,8 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
     allows, so that the refit, a model holding the base one, ends no worse), the effect climbs its rungs of magnitude
     and the law is refitted at each by a short Nelder-Mead search (``rung_evaluations``) in the law's stress at the
     middle of the shear-rate ``band`` and the yield stress' share of it (``stress_split``; initial simplex
-    ``split_step``, log units): the silhouettes fix that stress tightly and the share loosely, so an effect moves the
+    ``split_step``, log units) from the best of its start and the start's stress a step down and up: the silhouettes
+    fix that stress tightly and the share loosely, so an effect shifts the stress a little either way and moves the
     law along that valley, often far (walls adhering with 20 Pa, which the base fit answered with tau_y 14.3 and K 4.5
     Pa s, ask for 20 and 1.5). ``flow_index``: the law's n where ``base_x`` holds no log n (shear thinning's rung gives
     its own). An effect the base fit compensated with a very different law (a slow gate with a strong material, say)
@@ -105,6 +106,9 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
         start = min((np.clip(x, *law_box) for x in starts), key=lambda x: at_rung(x, phase))
         z = np.r_[stress_split(np.r_[start[:2], math.log(n_of(start))], rate), start[2:]]
         step = np.r_[split_step, np.full(len(start) - 2, split_step[0])]
+        # the stress is fixed tightly and an effect shifts it either way: bracket it a step down and up first
+        shift = np.r_[split_step[0], np.zeros(len(z) - 1)]
+        z = min((z, z - shift, z + shift), key=lambda z: at_rung(from_split(z), phase))
         simplex_search(lambda z, ph: at_rung(from_split(z), ph), z, step, rung_evaluations, phase)
         return min(found, key=lambda f: f[0])
 

@@ -194,6 +194,26 @@ def test_a_profile_moves_the_law_far_along_the_valley_of_equal_stress(tmp_path):
     assert np.exp(refit.x[:2]) == pytest.approx([20.0, 1.5], rel=0.3)
 
 
+def test_a_profile_brackets_the_stress_an_effect_takes_away(tmp_path):
+    """Walls adhering with 8 Pa, which the base fit compensated with a stronger law (22.4, 1.87 against the truth's
+    20, 1.5): at the first rung, 5 Pa, the law that fits has its stress a step below the base fit's, and the yield
+    stress' share is steep enough that a simplex stepping the stress up first spends its evaluations climbing out
+    (concealed adhesion 8 Pa: 0.0195 px at 5 Pa against 0.0060 a step of stress down; the profile stopped there and
+    named nothing). Bracketing the stress a step down and up before the simplex reaches the truth's neighbourhood."""
+    candidate = CANDIDATES["wall_adhesion"]
+    base_x, truth_x = np.log([22.4, 1.87]), np.log([20.0, 1.5])
+    target = candidate.coordinate(8.0)
+
+    def loss(p: np.ndarray) -> float:
+        valley = _split(base_x) + (_split(truth_x) - _split(base_x)) * max(p[2] / target, 0.0)
+        offset = _split(p) - valley
+        return 0.005 + 1.8 * offset[0] ** 2 + 0.1 * offset[1] ** 2 + 0.008 * min((p[2] - target) ** 2, 1.0)
+
+    log = EvaluationLog(tmp_path / "log.json", "key")
+    refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, SPLIT_STEP, 5)
+    assert 5.0 <= candidate.value(refit.x[2]) <= 15.0 and refit.loss < 0.008
+
+
 def test_a_thixotropy_profile_starts_from_the_intact_materials_yield_stress(tmp_path):
     """Concealed thixotropy 1.0 of a material of tau_y 20 Pa, which the base fit saw broken down (0.5 Pa): the law
     that fits at each breakdown rate has the yield stress that a plastic strain of 3.7 takes away restored, and a
