@@ -71,10 +71,15 @@ def _split(p: np.ndarray) -> np.ndarray:
     return stress_split(np.r_[p[:2], 0.0], 1.0)
 
 
-def _valley_loss(p: np.ndarray, valley: np.ndarray) -> float:
+def _valley_loss(p: np.ndarray, valley: np.ndarray, stress: float = 10.0, share: float = 0.05) -> float:
     """A dam break's law landscape: the stress at the flow's shear rates tight, the yield stress' share loose."""
     offset = _split(p) - valley
-    return 10.0 * offset[0] ** 2 + 0.05 * offset[1] ** 2
+    return stress * offset[0] ** 2 + share * offset[1] ** 2
+
+
+def _valley_towards(base_x: np.ndarray, truth_x: np.ndarray, along: float) -> np.ndarray:
+    """The split law ``along`` the straight way from the base fit's law (0) to the truth's (1)."""
+    return _split(base_x) + (_split(truth_x) - _split(base_x)) * along
 
 
 def test_a_profile_follows_the_law_an_effect_needs_far_from_the_base_fit(tmp_path):
@@ -185,8 +190,7 @@ def test_a_profile_moves_the_law_far_along_the_valley_of_equal_stress(tmp_path):
 
     def loss(p: np.ndarray) -> float:
         along = min(max(p[2] / target, 0.0), 1.0)
-        valley = _split(base_x) + (_split(truth_x) - _split(base_x)) * along
-        return 0.004 + _valley_loss(p, valley) + 0.01 * (p[2] - target) ** 2
+        return 0.004 + _valley_loss(p, _valley_towards(base_x, truth_x, along)) + 0.01 * (p[2] - target) ** 2
 
     log = EvaluationLog(tmp_path / "log.json", "key")
     refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, SPLIT_STEP, 5)
@@ -205,9 +209,8 @@ def test_a_profile_brackets_the_stress_an_effect_takes_away(tmp_path):
     target = candidate.coordinate(8.0)
 
     def loss(p: np.ndarray) -> float:
-        valley = _split(base_x) + (_split(truth_x) - _split(base_x)) * max(p[2] / target, 0.0)
-        offset = _split(p) - valley
-        return 0.005 + 1.8 * offset[0] ** 2 + 0.1 * offset[1] ** 2 + 0.008 * min((p[2] - target) ** 2, 1.0)
+        valley = _valley_towards(base_x, truth_x, max(p[2] / target, 0.0))
+        return 0.005 + _valley_loss(p, valley, 1.8, 0.1) + 0.008 * min((p[2] - target) ** 2, 1.0)
 
     log = EvaluationLog(tmp_path / "log.json", "key")
     refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, SPLIT_STEP, 5)
