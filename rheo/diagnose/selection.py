@@ -108,7 +108,7 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
         step = np.r_[split_step, np.full(len(start) - 2, split_step[0])]
         # the stress is fixed tightly and an effect shifts it either way: bracket it a step down and up first
         shift = np.r_[split_step[0], np.zeros(len(z) - 1)]
-        z = min((z, z - shift, z + shift), key=lambda z: at_rung(from_split(z), phase))
+        z = min((z, z - shift, z + shift), key=lambda point: at_rung(from_split(point), phase))
         simplex_search(lambda z, ph: at_rung(from_split(z), ph), z, step, rung_evaluations, phase)
         return min(found, key=lambda f: f[0])
 
