@@ -23,6 +23,7 @@ include: "workflow/rules/fit.smk"
 include: "workflow/rules/novel.smk"
 include: "workflow/rules/report.smk"
 include: "workflow/rules/virheometry.smk"
+include: "workflow/rules/convergence.smk"
 include: "workflow/rules/concealed.smk"
 include: "workflow/rules/diagnose.smk"
 

@@ -26,6 +26,7 @@ from rheo.experiments.dam_break import DamBreakScene, Effects, dam_break_scene
 from rheo.experiments.virheometry import CONTAINER_RIM, Setup, container_silhouette
 from rheo.fit.search import EvaluateMany, simplex_search
 from rheo.physics import HerschelBulkley
+from rheo.physics.simulator import Trajectory
 from rheo.render.silhouette import boundary_distance, distance_to, iou, silhouette
 
 OFFSET_STEP = 1.0 / 240.0  # s
@@ -110,10 +111,17 @@ class DamBreakTarget:
         return HerschelBulkley(tau_y=tau_y, K=K, n=n, mu=self.mu, lam=self.lam, density=self.setup.density)
 
     def compare(self, tau_y: float, K: float, n: float, effects: Effects | None = None) -> Comparison:
+        return self.score(self.simulate(tau_y, K, n, effects))
+
+    def simulate(self, tau_y: float, K: float, n: float, effects: Effects | None = None) -> Trajectory:
+        """The rollout every candidate offset's frames are taken from, sampled every ``OFFSET_STEP`` s."""
+        steps = self.offsets + (len(self.masks) - 1) * self.frame_steps
+        return self.scene.rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP, effects)
+
+    def score(self, trajectory: Trajectory) -> Comparison:
+        """The rollout's best agreement with the recording over the candidate offsets."""
         frames = len(self.masks)
-        steps = self.offsets + (frames - 1) * self.frame_steps
         # the whole material's silhouette is drawn; the shear rates are the simulated half's (its mirror's are equal)
-        trajectory = self.scene.rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP, effects)
         positions = self.scene.positions(trajectory)
         drawn = {}
 

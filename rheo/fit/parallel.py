@@ -24,9 +24,10 @@ _objectives: dict[str, Objective] = {}
 
 
 def _start(build: Callable[[], dict[str, Objective]]) -> None:
+    global _objectives
     threadpool_limits(1)  # numpy's BLAS
     torch.set_num_threads(1)  # torch's OpenMP and MKL
-    _objectives.update(build())
+    _objectives = build()
 
 
 def _run(name: str, x: np.ndarray) -> object:
@@ -35,8 +36,8 @@ def _run(name: str, x: np.ndarray) -> object:
 
 class Evaluator:
     """Named objectives evaluated in ``workers`` processes (in this process when ``workers`` is 1). ``build`` must
-    be picklable (a module-level function or a functools.partial of one) and return the objectives by name; their
-    values must be picklable."""
+    be picklable (a module-level function or a functools.partial of one) and return the objectives by name (a
+    mapping, which may build an objective when it is first asked for); their values must be picklable."""
 
     def __init__(self, build: Callable[[], dict[str, Objective]], workers: int) -> None:
         self.workers = workers

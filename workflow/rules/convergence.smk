@@ -1,0 +1,33 @@
+# The convergence study of a material's simulated dam breaks: laws on a sequence of grids and time steps.
+
+
+def convergence_laws(material: str) -> dict:
+    laws = config["virheometry"]["convergence"]["laws"].get(material, {})
+    if not laws and material not in config["virheometry"]["rheometer"]:
+        raise ValueError(f"{material}: no law to study (virheometry.convergence.laws has none, no rheometer curves)")
+    return laws
+
+
+rule virheometry_convergence:
+    input:
+        recordings=lambda w: sorted(str(f) for p in setup_folders(config["virheometry"]["data"], w.material)
+                                    for f in p.iterdir() if f.suffix in {".xml", ".png"}),
+        rheometer=lambda w: config["virheometry"]["rheometer"].get(w.material, []),
+    output:
+        report="results/virheometry/{material}/convergence.html",
+        summary="results/virheometry/{material}/convergence.json",
+    log:
+        "logs/virheometry/{material}/convergence.log",
+    benchmark:
+        "benchmarks/virheometry/{material}/convergence.tsv"
+    wildcard_constraints:
+        material=r"[A-Za-z0-9]+",
+    threads: 2
+    params:
+        folders=lambda w: [str(p) for p in setup_folders(config["virheometry"]["data"], w.material)],
+        laws=lambda w: convergence_laws(w.material),
+        study={k: v for k, v in config["virheometry"]["convergence"].items() if k != "laws"},
+        simulation=config["virheometry"]["simulation"],
+        scale=config["virheometry"]["scale"],
+    script:
+        "../../stages/virheometry_convergence.py"
