@@ -78,3 +78,27 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
         assert cells[6] == ("yes" if i == 5 else "no") and cells[7] == f"{i + 1:.1f}"  # ridge, runtime (min)
         assert f"<a href='{material}/report.html'>{material}</a>" in page
     assert page.count("<img") == 1  # the flow curves of all materials in one plot
+
+
+def test_the_convergence_study_writes_its_page_and_resumes_from_its_store(workflow):
+    (workflow.root / "quick.yaml").write_text(
+        "virheometry:\n  simulation: {cells_per_height: 4, cells_across: 4}\n"
+        "  convergence: {grids: [4, 7, 9], cfls: [0.8]}\n")
+    target = "results/virheometry/Lotion/convergence.html"
+    run = workflow.run(target, "--configfile", "quick.yaml")
+    assert run.returncode == 0, run.stderr[-3000:]
+    study = json.loads((workflow.root / "results/virheometry/Lotion/convergence.json").read_text())
+    assert set(study["laws"]) == {"bingham", "rheometer"} and study["laws"]["rheometer"][2] < 0.6
+    # the 2.5 cm setup gets three cells (4 cells over its height and the default grid give the same one), the
+    # 7 cm setup two (4 and 7 cells over its height and the default grid give the 4 cm depth in 4 cells)
+    cells = {setup: len({r["h_m"] for r in study["rows"] if r["setup"] == setup}) for setup in study["default_h_m"]}
+    assert cells == {"ref_Lotion_2.5_5.1_1": 3, "ref_Lotion_7.0_7.0_2": 2}
+    assert len(study["rows"]) == 2 * (3 + 2) and {c["grid"] for c in study["contests"]} == {"4x3", "7x3", "9x3", "4x4"}
+    page = (workflow.root / target).read_text()
+    assert page.count("<img") == 4 and "Which law comes closer" in page
+    rerun = workflow.run(target, "--configfile", "quick.yaml", "-f")
+    assert rerun.returncode == 0, rerun.stderr[-3000:]
+    log = (workflow.root / "logs/virheometry/Lotion/convergence.log").read_text()
+    assert "10 of 10 simulations stored; 0 to run" in log
+    assert json.loads((workflow.root / "results/virheometry/Lotion/convergence.json").read_text())["rows"] == \
+        study["rows"]

@@ -1,0 +1,113 @@
+"""The convergence study: Richardson extrapolation against sequences of known order and limit, the study's summary
+on constructed rows, and a small study of a real recording that resumes from its stored simulations."""
+
+from argparse import ArgumentTypeError
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rheo.experiments.rheometer import log_rms_error, read_flow_curve
+from rheo.experiments.virheometry import read_setup
+from rheo.fit import convergence
+from rheo.fit.convergence import (
+    EvaluationStore,
+    engine_fingerprint,
+    grid,
+    law,
+    observed_order,
+    rheometer_law,
+    richardson,
+    run,
+    study_cases,
+    summarize,
+)
+
+SHARED = Path(__file__).resolve().parents[3] / "shared" / "data"
+CURVES = sorted(str(p) for p in (SHARED / "rheometer").glob("Lotion_*.csv"))
+SIMULATION = {"cells_per_height": 6, "cells_across": 8, "particles_per_cell": 2, "mu": 300.0, "lam": 1.0e4,
+              "max_offset": 0.15, "cfl": 0.8}
+
+
+@pytest.mark.parametrize("order", [0.7, 1.0, 2.0])
+def test_richardson_recovers_the_order_and_limit_of_a_power_law_on_uneven_grids(order):
+    h = np.array([0.0067, 0.005, 0.004, 0.00286])
+    q = 0.31 - 4.0 * h**order
+    fit = richardson(h, q)
+    assert fit["order"] == pytest.approx(order, rel=1e-6)
+    assert fit["limit"] == pytest.approx(0.31, rel=1e-9)
+    assert fit["finest_error"] == pytest.approx(4.0 * h[-1] ** order / 0.31, rel=1e-6)
+
+
+def test_values_that_do_not_converge_monotonically_have_no_order():
+    assert observed_order([4.0, 2.0, 1.0], [1.0, 1.2, 1.1]) is None  # the differences change sign
+    assert observed_order([4.0, 2.0, 1.0], [1.0, 1.0, 1.1]) is None
+    assert richardson([2.0, 1.0], [1.0, 1.1]) == {"order": None, "limit": None, "finest_error": None}
+
+
+def _row(setup: str, law_label: str, h: float, cfl: float, loss: float, outflow: float, grids: list[str]) -> dict:
+    return {"setup": setup, "law": law_label, "h_m": h, "cfl": cfl, "grids": grids, "loss_px": loss,
+            "outflow": [0.5 * outflow, outflow], "front_m": [0.01, 0.02 * outflow], "times_s": [0.04, 0.08]}
+
+
+def test_summary_gives_limits_the_default_grids_error_the_winner_and_the_steps_effect():
+    rows = []
+    for h, grids in [(0.004, ["8x3"]), (0.002, ["16x3", "12x14"]), (0.001, ["32x3"])]:
+        for cfl, slower in [(0.4, 1.0), (0.8, 0.99)]:
+            rows.append(_row("a", "thin", h, cfl, 0.01 + 5 * h, slower * (0.3 - 10 * h), grids))
+            rows.append(_row("a", "plain", h, cfl, 0.02 + h, slower * (0.3 - 10 * h), grids))
+    summary = summarize(rows, {"a": 0.002})
+    entry = next(e for e in summary["convergence"] if (e["law"], e["cfl"]) == ("thin", 0.4))
+    outflow = entry["quantities"]["outflow"]
+    assert outflow["order"] == pytest.approx(1.0) and outflow["limit"] == pytest.approx(0.3)
+    assert outflow["default_error"] == pytest.approx(0.02 / 0.3)
+    winners = {(c["grid"], c["cfl"]): c["winner"] for c in summary["contests"]}
+    # thin loses 0.030 at h 0.004 against plain's 0.024, then wins as the cell shrinks
+    assert winners[("8x3", 0.4)] == "plain" and winners[("16x3", 0.4)] == winners[("32x3", 0.8)] == "thin"
+    assert winners[("12x14", 0.4)] == "thin"  # the default grid gives this setup the 16x3 cell
+    step = next(s for s in summary["time_steps"] if (s["law"], s["h_m"]) == ("thin", 0.001))
+    assert step["cfl"] == [0.4, 0.8] and step["outflow"] == pytest.approx(0.01)
+
+
+def test_the_rheometer_law_fits_every_lotion_curve_and_is_shear_thinning():
+    tau_y, K, n = rheometer_law(CURVES, (0.3, 30.0))
+    assert 0.3 < n < 0.6 and tau_y > 0 and K > 0
+    for path in CURVES:
+        assert log_rms_error(tau_y, K, n, read_flow_curve(path).within((0.3, 30.0))) < 0.05
+
+
+def test_a_study_of_a_real_recording_refines_the_flow_and_resumes_from_its_store(tmp_path, monkeypatch):
+    setup = read_setup(SHARED / "virheometry" / "ref_Lotion_2.5_5.1_1", scale=0.5)
+    laws = {"rheometer": rheometer_law(CURVES, (0.3, 30.0))}
+    # 4 and 5 cells over the 2.5 cm height give the same cell (the 4 cm depth in 8 cells): simulated once
+    cases = study_cases([setup], laws, [4, 5, 7], [0.8], (SIMULATION["cells_per_height"], SIMULATION["cells_across"]))
+    assert [c.grids for c in cases] == [("4x3", "5x3"), ("7x3",), ("6x8",)]
+    store = EvaluationStore(tmp_path / "study.evaluations.json", engine_fingerprint())
+    rows = run(cases, SIMULATION, 0.5, store, workers=1)
+    coarse, fine, default = rows
+    assert coarse["h_m"] > default["h_m"] > fine["h_m"]
+    assert coarse["recorded_outflow_px"] == fine["recorded_outflow_px"] and coarse["recorded_outflow_px"][-1] > 0
+    # a coarse grid holds the material back along the sticky floor and walls: refined, more of it flows
+    assert coarse["outflow"][-1] < default["outflow"][-1] < fine["outflow"][-1]
+    assert coarse["outflow_px"][-1] < fine["outflow_px"][-1] <= fine["recorded_outflow_px"][-1]
+    assert fine["loss_px"] < coarse["loss_px"]
+    assert np.all(np.diff(fine["front_m"]) >= 0) and fine["times_s"][0] == pytest.approx(1 / 24)
+
+    def never(*args):
+        raise AssertionError("a stored simulation was run again")
+
+    monkeypatch.setattr(convergence, "measure", never)
+    resumed = run(cases, SIMULATION, 0.5, EvaluationStore(store.path, store.fingerprint), workers=1)
+    assert resumed == rows
+    with pytest.raises(AssertionError, match="run again"):  # another engine's records are not reused
+        run(cases[:1], SIMULATION, 0.5, EvaluationStore(store.path, "another engine"), workers=1)
+
+
+def test_grids_and_laws_are_parsed_or_refused_with_the_text():
+    assert grid("12") == 12 and law("4.5,7,0.47") == (4.5, 7.0, 0.47)
+    with pytest.raises(ArgumentTypeError, match="'12x14'"):
+        grid("12x14")
+    with pytest.raises(ArgumentTypeError, match="at least 3"):
+        grid("2")
+    with pytest.raises(ArgumentTypeError, match=r"'4\.5,7'"):
+        law("4.5,7")
