@@ -1,7 +1,7 @@
 """The effects a diagnosis can name: each one parameter that the base dam-break model holds at its null value.
 
-Six are physics a recording may show (floor friction, wall adhesion, a gate lifted at a finite speed, shear
-thinning, thixotropy, air drag); two are decoys, not physics of the material (gravity tilted, a wrong density): a
+Seven are physics a recording may show (floor friction, wall slip, wall adhesion, a gate lifted at a finite speed,
+shear thinning, thixotropy, air drag); two are decoys, not physics of the material (gravity tilted, a wrong density): a
 diagnosis that names them has found a free parameter that fits, not an effect. Each is searched on a coordinate
 (its logarithm, or the value itself for the tilt) within a box, climbing rungs of magnitude outward from the null
 (both ways for the two-sided decoys).
@@ -65,6 +65,8 @@ class Candidate:
         match self.name:
             case "floor_friction":
                 return law, dataclasses.replace(effects, floor_friction=value)
+            case "wall_slip":
+                return law, dataclasses.replace(effects, wall_slip=value)
             case "wall_adhesion":
                 return law, dataclasses.replace(effects, physics=dataclasses.replace(physics, wall_adhesion=value))
             case "gate_lift":
@@ -107,6 +109,10 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
     # null: a sticky floor (an infinite coefficient); the box reaches from a floor that barely holds to nearly sticky
     Candidate("floor_friction", "floor friction (the material slides on the floor)", "Coulomb coefficient", "",
               math.inf, 0.05, 5.0, ((2.0, 1.0, 0.5, 0.3, 0.18, 0.1),)),
+    # null: sticky floor and walls (an infinite coefficient); from a traction a lotion's yield stress gives at mm/s
+    # of slip to one it gives at m/s
+    Candidate("wall_slip", "wall slip (the material slides on the floor and walls, Navier's law)", "slip coefficient",
+              "Pa s/m", math.inf, 10.0, 1.0e5, ((1.0e4, 3.0e3, 1.0e3, 300.0, 100.0),)),
     Candidate("wall_adhesion", "wall adhesion (smooth walls hold the material)", "adhesion", "Pa", 0.0, 1.0, 1000.0,
               ((5.0, 15.0, 45.0, 135.0),)),
     Candidate("gate_lift", "a gate lifted at a finite speed", "lift time", "s", 0.0, 0.005, 0.3,

@@ -38,12 +38,14 @@ class Effects:
     """What the base dam break leaves out, each at its null value by default (the base model, bit for bit).
 
     ``floor_friction``: the Coulomb coefficient of a floor the material slides on (None: the floor as the setup
-    gives it). ``gate_lift_time`` (s): a gate at the cuboid's front slides up at a constant speed and clears the
+    gives it). ``wall_slip`` (Pa s/m): the floor and walls hold the material with a Navier traction, this coefficient
+    times its slip velocity (None: the setup's contact laws; the floor's Coulomb friction, when given, prevails). ``gate_lift_time`` (s): a gate at the cuboid's front slides up at a constant speed and clears the
     material's height after this time (0: released at once). ``gravity_tilt`` (rad): gravity leans towards +x,
     down the channel (a table or camera not level). ``density_factor``: the material's density times this (a wrong
     density). ``physics``: the engine's optional physics (air drag, thixotropy, wall adhesion)."""
 
     floor_friction: float | None = None
+    wall_slip: float | None = None
     gate_lift_time: float = 0.0
     gravity_tilt: float = 0.0
     density_factor: float = 1.0
@@ -52,6 +54,8 @@ class Effects:
     def __post_init__(self) -> None:
         if self.floor_friction is not None and not (math.isfinite(self.floor_friction) and self.floor_friction >= 0):
             raise DamBreakError(f"floor friction coefficient {self.floor_friction!r} must be finite and >= 0")
+        if self.wall_slip is not None and not (math.isfinite(self.wall_slip) and self.wall_slip >= 0):
+            raise DamBreakError(f"wall slip coefficient {self.wall_slip!r} Pa s/m must be finite and >= 0")
         if not (math.isfinite(self.gate_lift_time) and self.gate_lift_time >= 0):
             raise DamBreakError(f"gate lift time {self.gate_lift_time!r} s must be finite and >= 0")
         if not (math.isfinite(self.gravity_tilt) and abs(self.gravity_tilt) < 0.5 * math.pi):
@@ -106,8 +110,9 @@ class DamBreakScene:
     def colliders(self, effects: Effects | None = None) -> list:
         """The floor, every wall above it as a box (the file's first box is the floor slab), and a lifted gate."""
         effects = effects or Effects()
+        navier = {} if effects.wall_slip is None else {"contact": "navier", "friction": effects.wall_slip}
         floor_contact = next((w.contact for w in self.setup.walls if w.high[1] <= 0.0), "sticky")
-        floor = Floor(height=0.0, contact=floor_contact) if effects.floor_friction is None else \
+        floor = Floor(height=0.0, **({"contact": floor_contact} | navier)) if effects.floor_friction is None else \
             Floor(height=0.0, contact="friction", friction=effects.floor_friction)
         cuboid_low, cuboid_high = self.setup.cuboid
         boxes = []
@@ -119,7 +124,7 @@ class DamBreakScene:
             low = np.where(behind, np.minimum(low, high - thick), low) - FACE_MARGIN * self.dx
             high = np.where(beyond, np.maximum(high, low + thick), high) + FACE_MARGIN * self.dx
             boxes.append(Box(center=tuple(0.5 * (low + high)), half_extents=tuple(0.5 * (high - low)),
-                             contact=wall.contact))
+                             **({"contact": wall.contact} | navier)))
         if effects.gate_lift_time > 0:
             boxes.append(self.gate(effects.gate_lift_time))
         return [floor, *boxes]

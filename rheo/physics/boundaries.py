@@ -1,9 +1,11 @@
 """Colliders: the floor, static boxes (container walls) and moving ones (a lifted cup, a dam-break gate).
 
 Each collider is a solid region given by a signed distance function, a contact law applied at the grid nodes inside
-it (sticky, slip, or Coulomb friction with a coefficient) and a rigid motion: constant velocity between ``start`` and
-``stop`` seconds. The friction coefficient and the velocity are differentiable boundary parameters; geometry enters
-through which nodes lie inside and is not differentiated. Lengths in m, speeds in m/s, times in s, y is up.
+it (sticky, slip, Coulomb friction with a coefficient, or Navier partial slip: a wall traction beta times the slip
+velocity, beta in Pa s/m, on the nodes of the collider's face) and a rigid motion: constant velocity between
+``start`` and ``stop`` seconds. The friction coefficient (Coulomb's, or Navier's beta) and the velocity are
+differentiable boundary parameters; geometry enters through which nodes lie inside and is not differentiated.
+Lengths in m, speeds in m/s, times in s, y is up.
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ import torch
 
 from rheo.physics import kernels as k
 
-CONTACT_LAWS = {"sticky": k.CONTACT_STICKY, "slip": k.CONTACT_SLIP, "friction": k.CONTACT_FRICTION}
+CONTACT_LAWS = {"sticky": k.CONTACT_STICKY, "slip": k.CONTACT_SLIP, "friction": k.CONTACT_FRICTION,
+                "navier": k.CONTACT_NAVIER}
 
 
 class BoundaryError(ValueError):

@@ -40,12 +40,15 @@ SHAPE_CUP = 2  # open-bottomed truncated-cone shell, see boundaries.Cup
 CONTACT_STICKY = 0
 CONTACT_SLIP = 1
 CONTACT_FRICTION = 2
+CONTACT_NAVIER = 3
 N_GEOM = 8
 B_FRICTION, B_VX, B_VY, B_VZ = range(4)
 N_BOUNDARY_PARAMS = 4
 MAX_COLLIDERS = 8
 
 BOUND = 3  # grid nodes next to each domain face that act as slip walls; particles must stay inside them
+# nodes less than this many cells inside a Navier wall carry its traction: one layer, whatever the rounding
+NAVIER_LAYER = 0.99
 MIRROR_NODES = 3  # node planes folded on either side of a plane of symmetry: more than a particle's stencil reaches
 
 # Most cyclic Jacobi sweeps of an eigen-decomposition (convergence is quadratic: from the identity a strained b takes
@@ -472,11 +475,14 @@ def build(scalar: type) -> SimpleNamespace:
         return grad / wp.max(wp.length(grad), tiny)
 
     @wp.func
-    def contact(v: vec3, v_col: vec3, nrm: vec3, law: int, friction: scalar) -> vec3:
+    def contact(v: vec3, v_col: vec3, nrm: vec3, law: int, friction: scalar, keep: scalar) -> vec3:
+        # ``keep``: the share of the tangential velocity a Navier wall leaves at the node after its traction
         rel = v - v_col
         if law == CONTACT_STICKY:
             return v_col
         vn = wp.dot(rel, nrm)
+        if law == CONTACT_NAVIER:
+            return keep * (rel - vn * nrm) + wp.max(vn, zero) * nrm + v_col
         if vn >= zero:
             return v
         vt = rel - vn * nrm
@@ -494,12 +500,15 @@ def build(scalar: type) -> SimpleNamespace:
         return v_col + wp.max(one - cut / speed, zero) * rel
 
     @wp.func
-    def collide(v: vec3, node: vec3, time: scalar, dx: scalar, c: int, shapes: wp.array(dtype=int),
-                laws: wp.array(dtype=int), geom: wp.array2d(dtype=scalar), timing: wp.array2d(dtype=scalar),
-                bparams: wp.array2d(dtype=scalar), adhesion_cut: scalar) -> vec3:
+    def collide(v: vec3, node: vec3, m: scalar, time: scalar, dt: scalar, dx: scalar, c: int,
+                shapes: wp.array(dtype=int), laws: wp.array(dtype=int), geom: wp.array2d(dtype=scalar),
+                timing: wp.array2d(dtype=scalar), bparams: wp.array2d(dtype=scalar), adhesion_cut: scalar,
+                face_mass: scalar) -> vec3:
         # Collider c moves with velocity bparams[c, 1:4] between timing[c, 0] and timing[c, 1]; a non-sticky one
         # slows the material within a cell of its face by ``adhesion_cut`` (m/s) when the walls adhere: an adhesion
-        # A (Pa) on a layer of a cell's thickness, A dt / (rho dx).
+        # A (Pa) on a layer of a cell's thickness, A dt / (rho dx). A Navier wall's traction beta v_slip (beta =
+        # bparams[c, B_FRICTION], Pa s/m) acts, implicitly, on the nodes of its face: dx^2 of wall each, in full
+        # where the node holds the ``face_mass`` material on one side of a face gives it, else in proportion.
         vel = vec3(bparams[c, B_VX], bparams[c, B_VY], bparams[c, B_VZ])
         t0 = timing[c, 0]
         t1 = timing[c, 1]
@@ -511,7 +520,10 @@ def build(scalar: type) -> SimpleNamespace:
         sdf = shape_sdf(shapes[c], local, geom, c)
         if sdf <= zero:
             nrm = shape_normal(shapes[c], local, geom, c, half * dx)
-            out = contact(v, v_col, nrm, laws[c], bparams[c, B_FRICTION])
+            keep = one
+            if laws[c] == CONTACT_NAVIER and sdf > -scalar(NAVIER_LAYER) * dx:
+                keep = one / (one + bparams[c, B_FRICTION] * dx * dx * dt / wp.max(m, face_mass))
+            out = contact(v, v_col, nrm, laws[c], bparams[c, B_FRICTION], keep)
         # adhesion on the nodes within a cell of the wall's face
         if adhesion_cut > zero and laws[c] != CONTACT_STICKY and wp.abs(sdf) < dx:
             out = adhere(out, v_col, adhesion_cut)
@@ -522,7 +534,7 @@ def build(scalar: type) -> SimpleNamespace:
                     time: scalar, dx: scalar, gravity: vec3, shapes: wp.array(dtype=int),
                     laws: wp.array(dtype=int), geom: wp.array2d(dtype=scalar), timing: wp.array2d(dtype=scalar),
                     bparams: wp.array2d(dtype=scalar), min_mass: scalar, offset: wp.vec3i, adhesion_cut: scalar,
-                    air_drag: scalar, grid_v: wp.array3d(dtype=vec3)):
+                    air_drag: scalar, face_mass: scalar, grid_v: wp.array3d(dtype=vec3)):
         # launched over the box of nodes the particles reach, from node ``offset``
         i, j, k = wp.tid()
         i += offset[0]
@@ -539,7 +551,8 @@ def build(scalar: type) -> SimpleNamespace:
         count = shapes.shape[0]
         for c in range(MAX_COLLIDERS):  # unrolled: Warp differentiates static loops only
             if c < count:
-                v = collide(v, node, time, dx, c, shapes, laws, geom, timing, bparams, adhesion_cut)
+                v = collide(v, node, m, time, dt, dx, c, shapes, laws, geom, timing, bparams, adhesion_cut,
+                            face_mass)
         # Domain faces are slip walls.
         n = grid_m.shape[0]
         lo = wp.vec3i(i, j, k)

@@ -335,6 +335,8 @@ class _Run:
         self.backward_done = False
         # walls' adhesion (Pa) on a layer a cell thick: its velocity change per step
         self.adhesion_cut = sim.physics.wall_adhesion * dt / (material.density * sim.dx)
+        # a wall-face node's mass under material on one side: half a cell's (the B-spline's weight beyond the face)
+        self.face_mass = 0.5 * material.density * sim.dx**3
         self._recorded: dict[tuple[str, int], wp.Launch] = {}
 
     def _launch(self, name: str, i: int, build, dim=None, changed: dict[int, object] | None = None) -> None:
@@ -395,7 +397,7 @@ class _Run:
             self._launch("grid_update", i, lambda: (
                 k.grid_update, box, [m, mv, s(self.dt), now, s(sim.dx), k.vec3(*sim.gravity), self.shapes, self.laws,
                                      self.geom, self.timing, self.bnd, s(self.min_mass), corner,
-                                     s(self.adhesion_cut), s(physics.air_drag)], [gv]),
+                                     s(self.adhesion_cut), s(physics.air_drag), s(self.face_mass)], [gv]),
                          dim=box, changed={GRID_UPDATE_TIME: now, GRID_UPDATE_LOW: corner})
             self._launch("g2p", i, lambda: (k.g2p, len(x), [x, gv, s(self.dt), s(inv_dx)],
                                             [x1, v1, C1, self.unstable]))

@@ -106,6 +106,20 @@ def test_effects_at_their_null_values_are_the_base_dam_break_and_each_moves_the_
         Effects(gate_lift_time=-1.0)
 
 
+def test_wall_slip_lets_the_material_slide_on_the_floor_and_walls_the_less_the_larger_its_coefficient(channel):
+    scene = dam_break_scene(channel((0.0, 0.05, 0.0, 0.04)), cells_per_height=6)
+    colliders = scene.colliders(Effects(wall_slip=300.0, gate_lift_time=0.1))
+    assert [(c.contact, c.friction) for c in colliders[:-1]] == [("navier", 300.0)] * (len(colliders) - 1)
+    assert colliders[-1].contact == "slip"  # the gate
+    assert scene.colliders(Effects(wall_slip=300.0, floor_friction=0.2))[0].contact == "friction"
+    base, _ = _fronts(scene)
+    held, _ = _fronts(scene, Effects(wall_slip=3.0e3))
+    sliding, _ = _fronts(scene, Effects(wall_slip=30.0))
+    assert base[-1] < held[-1] < sliding[-1] - 0.002
+    with pytest.raises(DamBreakError, match="wall slip"):
+        Effects(wall_slip=float("nan"))
+
+
 def test_the_gate_stands_on_the_cuboids_front_face_across_the_channel(channel):
     scene = dam_break_scene(channel((0.0, 0.05, 0.0, 0.04)), cells_per_height=6)
     gate = scene.colliders(Effects(gate_lift_time=0.1))[-1]

@@ -90,6 +90,16 @@ def test_initial_state_and_boundary_gradients():
     _check(g_x, lambda x: loss(x, v0, mat, bnd), x0, [(0, 0), (7, 2), (len(x0) // 2, 1), (len(x0) - 1, 0)])
 
 
+def test_navier_wall_gradients():
+    gate = dam_break_gate(0.8, center=(0.2437, 0.5, 0.5), half_extents=(0.0613, 0.3, 0.45), contact="navier",
+                          friction=300.0)
+    sim, x0, loss = _scene(HB, [Floor(height=FLOOR, contact="navier", friction=500.0), gate], center=(0.43, 0.52))
+    v0 = torch.tensor([-0.5, -0.3, 0.1], dtype=torch.float64)
+    _, _, _, g_bnd, mat, bnd = _gradients(sim, x0, loss, v0)
+    assert g_bnd[:, 0].abs().min() > 0  # both walls' beta act
+    _check(g_bnd, lambda b: loss(x0, v0, mat, b), bnd, [(0, 0), (1, 0), (1, 2)])
+
+
 def test_per_particle_initial_velocity_gradients():
     sim, x0, loss = _scene(HB, [Floor(height=FLOOR, contact="sticky")])
     v0 = V0.expand_as(x0).clone()

@@ -44,6 +44,40 @@ def test_momentum_is_conserved_without_gravity_or_boundaries():
     assert (tr.F[-1] - torch.eye(3, dtype=torch.float64)).abs().max() > 1e-2  # the material did deform
 
 
+@pytest.mark.parametrize("beta", [300.0, 1000.0])
+def test_block_sliding_on_a_navier_floor_slows_exponentially(beta):
+    """A stiff block (height h, density rho) sliding on a floor whose traction is beta times the slip velocity:
+    its mean velocity decays as v0 exp(-beta t / (rho h))."""
+    rho, height, floor = 1000.0, 0.2, 4 / 32
+    sim = Simulator(NeoHookean(mu=1.0e5, lam=1.0e5, density=rho), resolution=32, dtype=torch.float64,
+                    colliders=[Floor(height=floor, contact="navier", friction=beta)])
+    x0, vol = box((0.3, floor, 0.4), (0.5, floor + height, 0.6), sim.dx / 2)
+    tr = sim.rollout(x0, torch.tensor([0.3, 0.0, 0.0]), frames=10, frame_dt=0.02, particle_volume=vol)
+    expected = 0.3 * torch.exp(-beta / (rho * height) * tr.times)
+    assert (tr.v[:, :, 0].mean(dim=1) / expected - 1).abs().max() < 0.03
+
+
+def test_navier_floor_spans_slip_to_sticky():
+    """Beta 0 is a slip floor, a huge beta holds the material's foot as a sticky floor does, and between them the
+    foot spreads the less the larger beta."""
+    material = HerschelBulkley(tau_y=20.0, K=2.0, n=0.8, mu=2.0e3, lam=2.0e3)
+    floor = 3 / 16
+    final, spread = {}, {}
+    for name, collider in {"slip": Floor(height=floor, contact="slip"),
+                           "navier 0": Floor(height=floor, contact="navier", friction=0.0),
+                           "navier 1e3": Floor(height=floor, contact="navier", friction=1.0e3),
+                           "navier 1e9": Floor(height=floor, contact="navier", friction=1.0e9),
+                           "sticky": Floor(height=floor, contact="sticky")}.items():
+        sim = Simulator(material, resolution=16, colliders=[collider], dtype=torch.float64)
+        x0, vol = cylinder((0.5, 0.5), floor, 0.1, 0.2, sim.dx / 2)
+        final[name] = sim.rollout(x0, torch.zeros(3), frames=4, frame_dt=0.05, particle_volume=vol).x[-1]
+        foot = x0[:, 1] < floor + 0.5 * sim.dx  # the lowest layer of particles
+        spread[name] = float((final[name][foot, 0] - 0.5).abs().max())
+    assert (final["navier 0"] - final["slip"]).abs().max() < 1e-9
+    assert spread["sticky"] < spread["navier 1e3"] < spread["slip"]
+    assert spread["navier 1e9"] == pytest.approx(spread["sticky"], abs=0.1 / 16)
+
+
 def _slump_height(tau_prime: float, resolution: int, frames: int) -> tuple[float, float]:
     """Final height H - s of a cylinder (height = diameter) on a slip floor after a slow viscous collapse, and
     Pashias et al. (1996): s/H = 1 - 2 tau' (1 - ln 2 tau'), tau' = tau_y / (rho g H), tau_y a shear yield stress."""
