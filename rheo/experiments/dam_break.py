@@ -90,7 +90,8 @@ class DamBreakScene:
     """The simulated dam break: a cube of ``domain_size`` from ``domain_origin`` on ``resolution`` cells per axis,
     the floor and the setup's walls as colliders, ``particles_per_cell`` particles per cell and axis; the half of
     the material before ``mid_plane`` is simulated when one is given. Time steps are ``cfl`` times the time a wave
-    (elastic, plus the fastest flow) takes to cross a cell."""
+    (elastic, plus the fastest flow) takes to cross a cell; with ``transfer_cfl``, particles and grid exchange
+    velocities once per that share of the time the fastest flow takes to cross a cell (else at every step)."""
 
     setup: Setup
     domain_size: float
@@ -99,6 +100,12 @@ class DamBreakScene:
     particles_per_cell: int
     mid_plane: float | None = None  # z of the plane of symmetry when the half before it is simulated
     cfl: float = DEFAULT_CFL
+    transfer_cfl: float | None = None
+
+    @property
+    def flow_speed(self) -> float:
+        """About the fastest a dam break flows: the free fall from the material's height (m/s)."""
+        return math.sqrt(2.0 * GRAVITY * self.setup.height)
 
     @property
     def dx(self) -> float:
@@ -152,9 +159,10 @@ class DamBreakScene:
         gravity = (0.0, -GRAVITY, 0.0) if tilt == 0 else (GRAVITY * math.sin(tilt), -GRAVITY * math.cos(tilt), 0.0)
         if effects.density_factor != 1:
             material = dataclasses.replace(material, density=material.density * effects.density_factor)
+        transfer_dt = None if self.transfer_cfl is None else self.transfer_cfl * self.dx / self.flow_speed
         return Simulator(material, resolution=self.resolution, domain_size=self.domain_size,
                          domain_origin=self.domain_origin, colliders=self.colliders(effects), gravity=gravity,
-                         symmetry_z=self.mid_plane, physics=effects.physics, cfl=self.cfl)
+                         symmetry_z=self.mid_plane, physics=effects.physics, cfl=self.cfl, transfer_dt=transfer_dt)
 
     @cached_property
     def initial_positions(self) -> np.ndarray:
@@ -176,11 +184,9 @@ class DamBreakScene:
         effects = effects or Effects()
         frames = int(np.ceil(duration / sample_dt - 1e-9))
         simulator = self.simulator(material, effects)
-        # the fastest a dam break flows is about the free fall from the material's height (the simulator's own
-        # bound, a fall from the domain's height, takes smaller steps; an unstable step is retried at half); a
-        # gate, a slip plate sliding along its own face, pushes nothing and needs no smaller step
-        speed = math.sqrt(2.0 * GRAVITY * self.setup.height)
-        dt, _ = simulator.time_step(sample_dt, speed)
+        # the flow speed, not the simulator's own bound (a fall from the domain's height), sets the step (an unstable
+        # step is retried at half); a gate, a slip plate sliding along its own face, pushes nothing
+        dt, _ = simulator.time_step(sample_dt, self.flow_speed)
         with torch.no_grad():
             return simulator.rollout(torch.as_tensor(self.initial_positions, dtype=torch.float32), torch.zeros(3),
                                      frames=frames, frame_dt=sample_dt, particle_volume=self.particle_volume, dt=dt)
@@ -211,7 +217,8 @@ def mid_plane(setup: Setup) -> float | None:
 
 
 def dam_break_scene(setup: Setup, cells_per_height: int = 8, cells_across: int = 10, particles_per_cell: int = 2,
-                    margin: float = 0.25, reach: float | None = None, cfl: float = DEFAULT_CFL) -> DamBreakScene:
+                    margin: float = 0.25, reach: float | None = None, cfl: float = DEFAULT_CFL,
+                    transfer_cfl: float | None = None) -> DamBreakScene:
     """The scene of ``setup`` on cells of at most H / ``cells_per_height`` and at most the channel's depth /
     ``cells_across``: a cube holding the channel and the material that leaves it, the ``runout`` past the gate and
     as far to either side (grown by ``margin``), above ``kernels.BOUND`` boundary cells on every face and one more
@@ -233,4 +240,4 @@ def dam_break_scene(setup: Setup, cells_per_height: int = 8, cells_across: int =
     resolution = int(np.ceil(extent / dx)) + 2 * kernels.BOUND + 1
     origin = (-(kernels.BOUND + 1) * dx, -(kernels.BOUND + 1) * dx,
               -round((0.5 * resolution * dx - 0.5 * (low[1] + high[1])) / dx) * dx)
-    return DamBreakScene(setup, resolution * dx, origin, resolution, particles_per_cell, middle, cfl)
+    return DamBreakScene(setup, resolution * dx, origin, resolution, particles_per_cell, middle, cfl, transfer_cfl)

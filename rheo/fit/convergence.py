@@ -142,7 +142,7 @@ class EvaluationStore:
         self.records: dict[str, dict] = json.loads(self.path.read_text()) if self.path.is_file() else {}
 
     def key(self, case: Case, simulation: dict) -> str:
-        settings = {k: simulation[k] for k in ("particles_per_cell", "mu", "lam", "max_offset")}
+        settings = {k: simulation.get(k) for k in ("particles_per_cell", "mu", "lam", "max_offset", "transfer_cfl")}
         return json.dumps([self.fingerprint, case.folder, [float(v) for v in case.law], case.cells_per_height,
                            case.cells_across, case.cfl, settings])
 

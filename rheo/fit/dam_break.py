@@ -168,7 +168,8 @@ def target(setup: Setup, simulation: dict) -> DamBreakTarget:
     first frame ``min_offset`` (default 0) to ``max_offset`` s after the release, every ``held_out_every``-th frame
     (if given) held out of the loss."""
     scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
-                            simulation["particles_per_cell"], cfl=simulation["cfl"])
+                            simulation["particles_per_cell"], cfl=simulation["cfl"],
+                            transfer_cfl=simulation.get("transfer_cfl"))
     return DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]),
                           simulation.get("min_offset", 0.0), simulation.get("held_out_every"))
 

@@ -4,12 +4,14 @@ One step is ``eigen`` (eigen-decomposition of the trial strain for the Hencky mo
 last step's basis) and ``reached_nodes`` (the box of nodes the particles reach), then three differentiated launches:
 ``p2g`` (constitutive update and particle-to-grid transfer), ``grid_update`` (gravity and boundaries, over that box)
 and ``g2p`` (grid-to-particle transfer and advection); about a plane of symmetry, ``mirror_fold`` adds the mirror
-images' share to the grid after ``p2g``; a thixotropic material's ``structure_update`` accumulates each particle's
-plastic shear strain (``OptionalPhysics``: it lowers the yield stress in ``p2g``; air drag and wall adhesion act in
-``grid_update``). Every input a loss may depend on (particle state, material parameters, boundary parameters) is a
-Warp array, so Warp's generated adjoints give the gradients. The plastic return on Hencky strain has a hand-written
-adjoint (divided differences of the eigenvalues) that stays finite at repeated eigenvalues (undeformed material) and
-needs no second decomposition in the backward pass.
+images' share to the grid after ``p2g``. Between transfers a few steps apart, a step holds the particles in place
+and advances the grid's momentum alone: ``grid_gradient`` (the velocity gradient at the particles), ``eigen``,
+``stress_scatter`` (the stress' impulse), ``add_momentum``, ``grid_update``. A thixotropic material's
+``structure_update`` accumulates each particle's plastic shear strain (``OptionalPhysics``: it lowers the yield
+stress in ``p2g``; air drag and wall adhesion act in ``grid_update``). Every input a loss may depend on (particle
+state, material parameters, boundary parameters) is a Warp array, so Warp's generated adjoints give the gradients.
+The plastic return on Hencky strain has a hand-written adjoint (divided differences of the eigenvalues) that stays
+finite at repeated eigenvalues (undeformed material) and needs no second decomposition in the backward pass.
 
 Stress conventions: Kirchhoff stress ``tau``; deviatoric norm ``|s|``; equivalent shear stress ``|s| / sqrt(2)``,
 which is what ``tau_y`` and the Herschel-Bulkley law refer to (``tau = tau_y + K gamma_dot^n`` in simple shear).
@@ -437,6 +439,53 @@ def build(scalar: type) -> SimpleNamespace:
                     wp.atomic_add(grid_mv, gi, gj, gk, wgt * (mv + affine * dpos))
                     wp.atomic_add(grid_m, gi, gj, gk, wgt * p_mass)
 
+    @wp.kernel
+    def grid_gradient(x: wp.array(dtype=vec3), grid_v: wp.array3d(dtype=vec3), inv_dx: scalar,
+                      C_out: wp.array(dtype=mat33)):
+        """The grid velocity's gradient at each particle (as ``g2p`` gives it, without the transfer)."""
+        p = wp.tid()
+        base, fx, W = stencil(x[p], inv_dx, grid_v.shape[0])
+        dx = one / inv_dx
+        new_C = mat33()
+        for di in range(3):
+            for dj in range(3):
+                for dk in range(3):
+                    gv = grid_v[base[0] + di, base[1] + dj, base[2] + dk]
+                    wgt = W[di, 0] * W[dj, 1] * W[dk, 2]
+                    dpos = (node_offset(di, dj, dk) - fx) * dx
+                    new_C += (scalar(4.0) * inv_dx * inv_dx * wgt) * wp.outer(gv, dpos)
+        C_out[p] = new_C
+
+    @wp.kernel
+    def stress_scatter(x: wp.array(dtype=vec3), C: wp.array(dtype=mat33), F: wp.array(dtype=mat33),
+                       mat: wp.array(dtype=scalar), model: int, p_vol: scalar, dt: scalar, inv_dx: scalar,
+                       eig_q: wp.array(dtype=mat33), eig_l: wp.array(dtype=vec3), structure: wp.array(dtype=scalar),
+                       thixotropy: scalar, F_out: wp.array(dtype=mat33), grid_mv: wp.array3d(dtype=vec3)):
+        """``p2g`` less the particles' momentum: the constitutive update and the stress' impulse on the grid."""
+        p = wp.tid()
+        F_new, tau = constitutive(F[p], C[p], mat, model, dt, eig_q[p], eig_l[p],
+                                  yield_factor(structure, p, thixotropy))
+        F_out[p] = F_new
+        affine = (-dt * p_vol * scalar(4.0) * inv_dx * inv_dx) * tau
+        base, fx, W = stencil(x[p], inv_dx, grid_mv.shape[0])
+        dx = one / inv_dx
+        for i in range(3):
+            for j in range(3):
+                for k in range(3):
+                    wgt = W[i, 0] * W[j, 1] * W[k, 2]
+                    dpos = (node_offset(i, j, k) - fx) * dx
+                    wp.atomic_add(grid_mv, base[0] + i, base[1] + j, base[2] + k, wgt * (affine * dpos))
+
+    @wp.kernel
+    def add_momentum(grid_m: wp.array3d(dtype=scalar), grid_v: wp.array3d(dtype=vec3), offset: wp.vec3i,
+                     grid_mv: wp.array3d(dtype=vec3)):
+        """Adds the nodes' momentum (mass times velocity) to ``grid_mv``, over a box of nodes from ``offset``."""
+        i, j, k = wp.tid()
+        i += offset[0]
+        j += offset[1]
+        k += offset[2]
+        grid_mv[i, j, k] = grid_mv[i, j, k] + grid_m[i, j, k] * grid_v[i, j, k]
+
     @wp.func
     def cup_sdf(p: vec3, g: wp.array2d(dtype=scalar), c: int) -> scalar:
         # Shell of thickness g[c, 6] around a truncated-cone cavity with vertical axis at (x, z) = (g[c, 0], g[c, 1]),
@@ -573,10 +622,10 @@ def build(scalar: type) -> SimpleNamespace:
             wp.atomic_max(bounds, 3 + a, base[a] + 2)
 
     @wp.kernel
-    def mirror_fold(grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3), plane: int):
+    def mirror_fold(grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3), plane: int, mass: int):
         """Makes the grid that of a flow symmetric about the node plane z = ``plane`` from particles on one side:
-        node pairs at ``plane`` -/+ d each add the other's mass and z-reflected momentum (what the particles' mirror
-        images deposit); the plane's own nodes double."""
+        node pairs at ``plane`` -/+ d each add the other's z-reflected momentum and, if ``mass``, mass (what the
+        particles' mirror images deposit); the plane's own nodes double."""
         i, j, d = wp.tid()
         a = plane + d
         b = plane - d
@@ -584,12 +633,14 @@ def build(scalar: type) -> SimpleNamespace:
         mv_a = grid_mv[i, j, a]
         mv_b = grid_mv[i, j, b]
         if d == 0:
-            grid_m[i, j, a] = scalar(2.0) * grid_m[i, j, a]
+            if mass != 0:
+                grid_m[i, j, a] = scalar(2.0) * grid_m[i, j, a]
             grid_mv[i, j, a] = mv_a + wp.cw_mul(flip, mv_a)
         else:
-            m = grid_m[i, j, a] + grid_m[i, j, b]
-            grid_m[i, j, a] = m
-            grid_m[i, j, b] = m
+            if mass != 0:
+                m = grid_m[i, j, a] + grid_m[i, j, b]
+                grid_m[i, j, a] = m
+                grid_m[i, j, b] = m
             grid_mv[i, j, a] = mv_a + wp.cw_mul(flip, mv_b)
             grid_mv[i, j, b] = mv_b + wp.cw_mul(flip, mv_a)
 
@@ -619,6 +670,7 @@ def build(scalar: type) -> SimpleNamespace:
 
     return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, structure_update=structure_update, p2g=p2g,
                            reached_nodes=reached_nodes, mirror_fold=mirror_fold, grid_update=grid_update, g2p=g2p,
+                           grid_gradient=grid_gradient, stress_scatter=stress_scatter, add_momentum=add_momentum,
                            return_mapping=return_mapping, hb_excess=hb_excess_kernel)
 
 

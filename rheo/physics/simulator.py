@@ -31,6 +31,7 @@ logger = logging.getLogger(__name__)
 
 # arguments of kernels.grid_update that change every step
 GRID_UPDATE_TIME, GRID_UPDATE_LOW = 3, 12
+ADD_MOMENTUM_LOW = 2
 # the default step: this share of the time a wave (elastic, plus the fastest flow) takes to cross a cell
 DEFAULT_CFL = 0.4
 
@@ -90,9 +91,11 @@ class Simulator:
     differentiated.
 
     ``dt`` fixes the step of every rollout (rounded to divide the frame interval); without it each rollout takes the
-    largest step its material's stability limit allows. At the coarse grids a fit affords, the simulated flow depends
-    on the step (the particle-grid transfers dissipate a little at every step), so materials compared with one
-    another, in a fit and in the virtual lab that made its recordings, should share one step.
+    largest step its material's stability limit allows. The particle-grid transfers dissipate a little each time, so
+    with a transfer at every step the flow depends on the step. With ``transfer_dt`` (s) the particles and the grid
+    exchange velocities once per interval of at most that length (whole intervals per frame, whole steps per
+    interval); between transfers the particles are held in place and the grid's momentum advances under their
+    stresses, so the flow depends on the interval, not on the step. Such rollouts are not differentiated.
     """
 
     def __init__(self, material: Material, *, resolution: int = 32, domain_size: float = 1.0,
@@ -100,7 +103,7 @@ class Simulator:
                  dtype: torch.dtype = torch.float32, cfl: float = DEFAULT_CFL, max_halvings: int = 4,
                  checkpoint_mb: float = 1024.0, domain_origin=(0.0, 0.0, 0.0),
                  symmetry_z: float | None = None, physics: OptionalPhysics | None = None,
-                 dt: float | None = None) -> None:
+                 dt: float | None = None, transfer_dt: float | None = None) -> None:
         if not isinstance(material, Material):
             raise MaterialError(f"expected a Material, got {material!r}")
         if not (isinstance(resolution, int) and resolution >= 2 * kernels.BOUND + 2):
@@ -111,6 +114,8 @@ class Simulator:
             raise SimulationError(f"CFL number {cfl!r} must lie in (0, 1]")
         if dt is not None and not (math.isfinite(dt) and dt > 0):
             raise SimulationError(f"time step {dt!r} s must be finite and > 0")
+        if transfer_dt is not None and not (math.isfinite(transfer_dt) and transfer_dt > 0):
+            raise SimulationError(f"transfer interval {transfer_dt!r} s must be finite and > 0")
         gravity = tuple(float(g) for g in gravity)
         if len(gravity) != 3 or not all(math.isfinite(g) for g in gravity):
             raise SimulationError(f"gravity {gravity!r} must be three finite numbers")
@@ -134,6 +139,7 @@ class Simulator:
         self.scalar = kernels.scalar_type(dtype)
         self.cfl = cfl
         self.dt = dt
+        self.transfer_dt = transfer_dt
         self.max_halvings = max_halvings
         self.checkpoint_mb = checkpoint_mb
         wp.init()
@@ -257,9 +263,15 @@ class Simulator:
         else:
             substeps = max(1, round(frame_dt / dt))
             dt = frame_dt / substeps
+        steps_per_transfer = 1
+        if self.transfer_dt is not None:  # whole transfer intervals per frame, whole steps per interval
+            transfers = math.ceil(frame_dt / self.transfer_dt - 1e-9)
+            steps_per_transfer = math.ceil(substeps / transfers - 1e-9)
+            substeps = transfers * steps_per_transfer
+            dt = frame_dt / substeps
         kernel_mat = material.kernel_vector(mat)
         for attempt in range(self.max_halvings + 1):
-            run = _Run(self, material, dt, substeps, frames, particle_volume, progress)
+            run = _Run(self, material, dt, substeps, frames, particle_volume, progress, steps_per_transfer)
             try:
                 x, v, C, F = _RolloutFunction.apply(run, x0 - origin, v0, kernel_mat, bnd)
                 break
@@ -271,7 +283,7 @@ class Simulator:
                         f"smallest allowed step ({self.max_halvings} halvings)") from None
                 logger.warning("simulation unstable at step %d (dt = %.3g s); retrying at dt = %.3g s",
                                err.step, dt, dt / 2)
-                dt, substeps = dt / 2, substeps * 2
+                dt, substeps, steps_per_transfer = dt / 2, substeps * 2, steps_per_transfer * 2
         times = torch.arange(frames + 1, dtype=self.dtype) * frame_dt
         return Trajectory(x=x + origin, v=v, C=C, F=F, times=times, dt=dt, substeps=substeps)
 
@@ -317,8 +329,9 @@ class _Run:
     """One rollout: its forward pass, checkpoints and backward pass."""
 
     def __init__(self, sim: Simulator, material: Material, dt: float, substeps: int, frames: int,
-                 particle_volume: float, progress: bool) -> None:
+                 particle_volume: float, progress: bool, steps_per_transfer: int = 1) -> None:
         self.sim, self.material, self.dt, self.substeps, self.frames = sim, material, dt, substeps, frames
+        self.steps_per_transfer = steps_per_transfer
         self.particle_volume = particle_volume
         self.min_mass = 1e-6 * material.density * particle_volume  # a millionth of a particle's mass
         self.progress = progress
@@ -367,40 +380,61 @@ class _Run:
         eig_q, eig_l = buf.eig_q[grid], buf.eig_l[grid]
         structure, structure_next = buf.structure[i % len(buf.x)], buf.structure[(i + 1) % len(buf.x)]
         physics = sim.physics
-        m.zero_()
-        mv.zero_()
         inv_dx = 1.0 / sim.dx
-        wp.copy(self.reached, self.unreached)
-        self._launch("reached_nodes", i, lambda: (
-            k.reached_nodes, len(x), [x, s(inv_dx), sim.resolution], [self.reached]))
-        bounds = self.reached.numpy()
-        low, high = bounds[:3], bounds[3:]
+        phase = step % self.steps_per_transfer  # steps since the last particle-to-grid transfer
+        if phase == 0:
+            m.zero_()
+            wp.copy(self.reached, self.unreached)
+            self._launch("reached_nodes", i, lambda: (
+                k.reached_nodes, len(x), [x, s(inv_dx), sim.resolution], [self.reached]))
+            bounds = self.reached.numpy()
+            self.low, self.high = bounds[:3], bounds[3:]
+            rate = C  # the velocity gradient of the constitutive update
+        else:  # the particles held in place since the transfer: the grid's velocity gradient at them
+            rate = self.rate
+            self._launch("grid_gradient", i, lambda: (k.grid_gradient, len(x), [x, gv, s(inv_dx)], [rate]))
+        mv.zero_()
+        low, high = self.low, self.high
         if self.material.model in (kernels.MODEL_HERSCHEL_BULKLEY, kernels.MODEL_PLASTICINE):
             # from the last step's basis: in place without gradients, else the last step's own array
             guess = eig_q if not self.requires_grad else buf.eig_q[grid - 1] if grid > 0 else buf.identity
-            self._launch("eigen", i, lambda: (k.eigen, len(x), [F, C, s(self.dt), guess], [eig_q, eig_l]))
+            self._launch("eigen", i, lambda: (k.eigen, len(x), [F, rate, s(self.dt), guess], [eig_q, eig_l]))
             if physics.thixotropy > 0.0:
                 self._launch("structure_update", i, lambda: (
-                    k.structure_update, len(x), [F, C, eig_l, self.mat, self.material.model, s(self.dt),
+                    k.structure_update, len(x), [F, rate, eig_l, self.mat, self.material.model, s(self.dt),
                                                  s(physics.thixotropy), structure], [structure_next]))
+        # only the nodes the particles reach hold mass and are read back (the grid is mostly empty)
+        box = tuple(int(h - lo + 1) for lo, h in zip(low, high, strict=True))
+        now, corner = s(step * self.dt), wp.vec3i(*low)
         with tape if tape is not None else contextlib.nullcontext():
-            self._launch("p2g", i, lambda: (
-                k.p2g, len(x), [x, v, C, F, self.mat, self.material.model, s(self.particle_volume), s(self.dt),
-                                s(inv_dx), eig_q, eig_l, structure, s(physics.thixotropy)], [F1, m, mv]))
+            if phase == 0:
+                self._launch("p2g", i, lambda: (
+                    k.p2g, len(x), [x, v, C, F, self.mat, self.material.model, s(self.particle_volume),
+                                    s(self.dt), s(inv_dx), eig_q, eig_l, structure, s(physics.thixotropy)],
+                    [F1, m, mv]))
+            else:
+                self._launch("stress_scatter", i, lambda: (
+                    k.stress_scatter, len(x), [x, rate, F, self.mat, self.material.model, s(self.particle_volume),
+                                               s(self.dt), s(inv_dx), eig_q, eig_l, structure,
+                                               s(physics.thixotropy)], [F1, mv]))
             if sim.symmetry_node is not None:
-                self._launch("mirror_fold", i, lambda: (
-                    k.mirror_fold, (m.shape[0], m.shape[1], kernels.MIRROR_NODES + 1), [m, mv, sim.symmetry_node],
-                    []))
-            # only the nodes the particles reach hold mass and are read back (the grid is mostly empty)
-            box = tuple(int(h - lo + 1) for lo, h in zip(low, high, strict=True))
-            now, corner = s(step * self.dt), wp.vec3i(*low)
+                self._launch(f"mirror_fold {phase == 0}", i, lambda: (
+                    k.mirror_fold, (m.shape[0], m.shape[1], kernels.MIRROR_NODES + 1),
+                    [m, mv, sim.symmetry_node, int(phase == 0)], []))
+            if phase > 0:
+                self._launch("add_momentum", i, lambda: (k.add_momentum, box, [m, gv, corner], [mv]),
+                             dim=box, changed={ADD_MOMENTUM_LOW: corner})
             self._launch("grid_update", i, lambda: (
                 k.grid_update, box, [m, mv, s(self.dt), now, s(sim.dx), k.vec3(*sim.gravity), self.shapes, self.laws,
                                      self.geom, self.timing, self.bnd, s(self.min_mass), corner,
                                      s(self.adhesion_cut), s(physics.air_drag), s(self.face_mass)], [gv]),
                          dim=box, changed={GRID_UPDATE_TIME: now, GRID_UPDATE_LOW: corner})
-            self._launch("g2p", i, lambda: (k.g2p, len(x), [x, gv, s(self.dt), s(inv_dx)],
-                                            [x1, v1, C1, self.unstable]))
+            if phase == self.steps_per_transfer - 1:
+                self._launch("g2p", i, lambda: (k.g2p, len(x), [x, gv, s(self.dt * self.steps_per_transfer),
+                                                                s(inv_dx)], [x1, v1, C1, self.unstable]))
+            else:
+                for source, target in ((x, x1), (v, v1), (C, C1)):
+                    wp.copy(target, source)
 
     def _run_chunk(self, buf: _Buffers, start: int, length: int, record: list | None, bar) -> wp.Tape | None:
         """Advance ``length`` steps from buffer state 0; record frames into ``record`` if given."""
@@ -434,6 +468,8 @@ class _Run:
             raise SimulationError("a rollout about a plane of symmetry cannot be differentiated")
         if requires_grad and sim.physics.thixotropy > 0.0:
             raise SimulationError("a thixotropic rollout cannot be differentiated")
+        if requires_grad and self.steps_per_transfer > 1:
+            raise SimulationError("a rollout with transfers every few steps (transfer_dt) cannot be differentiated")
         self.requires_grad = requires_grad
         self.mat = wp.array(mat.detach().cpu().numpy(), dtype=sim.scalar, requires_grad=requires_grad)
         self.bnd = wp.array(bnd.detach().cpu().numpy().reshape(-1, kernels.N_BOUNDARY_PARAMS), dtype=sim.scalar,
@@ -441,6 +477,8 @@ class _Run:
         budget = max(1, int(sim.checkpoint_mb * 2**20 // sim.bytes_per_step(n)))
         self.chunk = min(self.steps, budget) if requires_grad else self.steps
         self.buf = sim._acquire(n, self.chunk, requires_grad)
+        if self.steps_per_transfer > 1:
+            self.rate = wp.zeros(n, dtype=sim.kernels.mat33)
         eye = torch.eye(3, dtype=sim.dtype).expand(n, 3, 3)
         state0 = (x0.detach(), v0.detach(), torch.zeros(n, 3, 3, dtype=sim.dtype), eye)
         record = [torch.empty((self.frames + 1, *t.shape), dtype=sim.dtype) for t in state0]

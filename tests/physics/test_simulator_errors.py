@@ -46,6 +46,11 @@ def test_bad_colliders_and_settings():
     x0, vol = _block(sim)
     with pytest.raises(SimulationError, match="initial velocity must be finite"):
         sim.rollout(x0, torch.full((3,), math.inf), frames=1, frame_dt=0.01, particle_volume=vol)
+    with pytest.raises(SimulationError, match=r"transfer interval -0\.01 s must be finite and > 0"):
+        Simulator(HerschelBulkley(), resolution=16, transfer_dt=-0.01)
+    with pytest.raises(SimulationError, match="transfers every few steps .* cannot be differentiated"):
+        Simulator(HerschelBulkley(), resolution=16, transfer_dt=0.005).rollout(
+            x0.requires_grad_(), torch.zeros(3), frames=1, frame_dt=0.01, particle_volume=vol)
 
 
 def test_unstable_step_is_retried_at_half_the_step(caplog):

@@ -30,13 +30,14 @@ def concealed_recordings(kind: str) -> list[str]:
 
 
 def concealed_simulation() -> dict:
-    """The fit's simulation: the real dam breaks' particles and elastic constants on the lab's grid and time step,
-    the first frame one frame interval after the release (the lab knows it), every few frames held out."""
+    """The fit's simulation: the real dam breaks' particles and elastic constants on the lab's grid and time step
+    (with the lab's transfer at every step), the first frame one frame interval after the release (the lab knows
+    it), every few frames held out."""
     first = 1.0 / config["concealed"]["scene"]["fps"]
     lab = config["concealed"]["lab"]
     grid = {key: lab[key] for key in ("cells_per_height", "cells_across", "cfl")}
-    return {**config["virheometry"]["simulation"], **grid, "min_offset": first, "max_offset": first,
-            "held_out_every": config["diagnose"]["held_out_every"]}
+    return {**config["virheometry"]["simulation"], **grid, "transfer_cfl": None, "min_offset": first,
+            "max_offset": first, "held_out_every": config["diagnose"]["held_out_every"]}
 
 
 def concealed_fit_settings() -> dict:
