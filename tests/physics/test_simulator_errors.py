@@ -48,7 +48,7 @@ def test_bad_colliders_and_settings():
         sim.rollout(x0, torch.full((3,), math.inf), frames=1, frame_dt=0.01, particle_volume=vol)
     with pytest.raises(SimulationError, match=r"transfer interval -0\.01 s must be finite and > 0"):
         Simulator(HerschelBulkley(), resolution=16, transfer_dt=-0.01)
-    with pytest.raises(SimulationError, match="transfers every few steps .* cannot be differentiated"):
+    with pytest.raises(SimulationError, match=r"transfers every few steps .* cannot be differentiated"):
         Simulator(HerschelBulkley(), resolution=16, transfer_dt=0.005).rollout(
             x0.requires_grad_(), torch.zeros(3), frames=1, frame_dt=0.01, particle_volume=vol)
 
