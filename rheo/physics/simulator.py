@@ -91,7 +91,8 @@ class Simulator:
     differentiated.
 
     ``dt`` fixes the step of every rollout (rounded to divide the frame interval); without it each rollout takes the
-    largest step its material's stability limit allows. The particle-grid transfers dissipate a little each time, so
+    largest step its material's stability limit allows; an unstable rollout is retried at half the step (and half the
+    interval between transfers). The particle-grid transfers dissipate a little each time, so
     with a transfer at every step the flow depends on the step. With ``transfer_dt`` (s) the particles and the grid
     exchange velocities once per interval of at most that length (whole intervals per frame, whole steps per
     interval); between transfers the particles are held in place and the grid's momentum advances under their
@@ -281,9 +282,11 @@ class Simulator:
                         f"simulation unstable at step {err.step} (t = {err.step * dt:.4g} s): a particle moved more "
                         f"than one cell ({self.dx:.4g} m) in a step or became NaN, even at dt = {dt:.3g} s, the "
                         f"smallest allowed step ({self.max_halvings} halvings)") from None
-                logger.warning("simulation unstable at step %d (dt = %.3g s); retrying at dt = %.3g s",
-                               err.step, dt, dt / 2)
-                dt, substeps, steps_per_transfer = dt / 2, substeps * 2, steps_per_transfer * 2
+                # the step and the interval between transfers halved (particles held in place too long go
+                # unstable as steps too long do)
+                logger.warning("simulation unstable at step %d (dt = %.3g s, transfers every %d steps); retrying at "
+                               "dt = %.3g s", err.step, dt, steps_per_transfer, dt / 2)
+                dt, substeps = dt / 2, substeps * 2
         times = torch.arange(frames + 1, dtype=self.dtype) * frame_dt
         return Trajectory(x=x + origin, v=v, C=C, F=F, times=times, dt=dt, substeps=substeps)
 
@@ -398,9 +401,11 @@ class _Run:
         if self.material.model in (kernels.MODEL_HERSCHEL_BULKLEY, kernels.MODEL_PLASTICINE):
             # from the last step's basis: in place without gradients, else the last step's own array
             guess = eig_q if not self.requires_grad else buf.eig_q[grid - 1] if grid > 0 else buf.identity
-            self._launch("eigen", i, lambda: (k.eigen, len(x), [F, rate, s(self.dt), guess], [eig_q, eig_l]))
+            # recorded apart for the steps that transfer and those between (their velocity gradients differ)
+            self._launch(f"eigen {phase == 0}", i, lambda: (
+                k.eigen, len(x), [F, rate, s(self.dt), guess], [eig_q, eig_l]))
             if physics.thixotropy > 0.0:
-                self._launch("structure_update", i, lambda: (
+                self._launch(f"structure_update {phase == 0}", i, lambda: (
                     k.structure_update, len(x), [F, rate, eig_l, self.mat, self.material.model, s(self.dt),
                                                  s(physics.thixotropy), structure], [structure_next]))
         # only the nodes the particles reach hold mass and are read back (the grid is mostly empty)
