@@ -92,11 +92,11 @@ class Simulator:
 
     ``dt`` fixes the step of every rollout (rounded to divide the frame interval); without it each rollout takes the
     largest step its material's stability limit allows; an unstable rollout is retried at half the step (and half the
-    interval between transfers). The particle-grid transfers dissipate a little each time, so
-    with a transfer at every step the flow depends on the step. With ``transfer_dt`` (s) the particles and the grid
-    exchange velocities once per interval of at most that length (whole intervals per frame, whole steps per
-    interval); between transfers the particles are held in place and the grid's momentum advances under their
-    stresses, so the flow depends on the interval, not on the step. Such rollouts are not differentiated.
+    interval between transfers). The particle-grid transfers dissipate a little each time, so with a transfer at
+    every step the flow depends on the step. With ``transfer_dt`` (s) the particles and the grid exchange velocities
+    once per interval of at most that length (whole intervals per frame, whole steps per interval); between
+    transfers the particles are held in place and the grid's momentum advances under their stresses, so the flow
+    depends on the interval, not on the step. Such rollouts are not differentiated.
     """
 
     def __init__(self, material: Material, *, resolution: int = 32, domain_size: float = 1.0,
