@@ -439,13 +439,12 @@ def build(scalar: type) -> SimpleNamespace:
                     wp.atomic_add(grid_mv, gi, gj, gk, wgt * (mv + affine * dpos))
                     wp.atomic_add(grid_m, gi, gj, gk, wgt * p_mass)
 
-    @wp.kernel
-    def grid_gradient(x: wp.array(dtype=vec3), grid_v: wp.array3d(dtype=vec3), inv_dx: scalar,
-                      C_out: wp.array(dtype=mat33)):
-        """The grid velocity's gradient at each particle (as ``g2p`` gives it, without the transfer)."""
-        p = wp.tid()
-        base, fx, W = stencil(x[p], inv_dx, grid_v.shape[0])
+    @wp.func
+    def interpolate(x: vec3, grid_v: wp.array3d(dtype=vec3), inv_dx: scalar):
+        """The grid velocity at ``x`` and its gradient there (APIC's affine velocity)."""
+        base, fx, W = stencil(x, inv_dx, grid_v.shape[0])
         dx = one / inv_dx
+        new_v = vec3()
         new_C = mat33()
         for di in range(3):
             for dj in range(3):
@@ -453,8 +452,17 @@ def build(scalar: type) -> SimpleNamespace:
                     gv = grid_v[base[0] + di, base[1] + dj, base[2] + dk]
                     wgt = W[di, 0] * W[dj, 1] * W[dk, 2]
                     dpos = (node_offset(di, dj, dk) - fx) * dx
+                    new_v += wgt * gv
                     new_C += (scalar(4.0) * inv_dx * inv_dx * wgt) * wp.outer(gv, dpos)
-        C_out[p] = new_C
+        return new_v, new_C
+
+    @wp.kernel
+    def grid_gradient(x: wp.array(dtype=vec3), grid_v: wp.array3d(dtype=vec3), inv_dx: scalar,
+                      C_out: wp.array(dtype=mat33)):
+        """The grid velocity's gradient at each particle (as ``g2p`` gives it, without the transfer)."""
+        p = wp.tid()
+        _velocity, gradient = interpolate(x[p], grid_v, inv_dx)
+        C_out[p] = gradient
 
     @wp.kernel
     def stress_scatter(x: wp.array(dtype=vec3), C: wp.array(dtype=mat33), F: wp.array(dtype=mat33),
@@ -649,18 +657,8 @@ def build(scalar: type) -> SimpleNamespace:
             x_out: wp.array(dtype=vec3), v_out: wp.array(dtype=vec3), C_out: wp.array(dtype=mat33),
             unstable: wp.array(dtype=int)):
         p = wp.tid()
-        base, fx, W = stencil(x[p], inv_dx, grid_v.shape[0])
+        new_v, new_C = interpolate(x[p], grid_v, inv_dx)
         dx = one / inv_dx
-        new_v = vec3()
-        new_C = mat33()
-        for di in range(3):
-            for dj in range(3):
-                for dk in range(3):
-                    gv = grid_v[base[0] + di, base[1] + dj, base[2] + dk]
-                    wgt = W[di, 0] * W[dj, 1] * W[dk, 2]
-                    dpos = (node_offset(di, dj, dk) - fx) * dx
-                    new_v += wgt * gv
-                    new_C += (scalar(4.0) * inv_dx * inv_dx * wgt) * wp.outer(gv, dpos)
         step = dt * wp.length(new_v)
         if not (step <= dx):  # also catches NaN
             wp.atomic_max(unstable, 0, 1)
