@@ -6,7 +6,7 @@ last step's basis) and ``reached_nodes`` (the box of nodes the particles reach),
 and ``g2p`` (grid-to-particle transfer and advection); about a plane of symmetry, ``mirror_fold`` adds the mirror
 images' share to the grid after ``p2g``. Between transfers a few steps apart, a step holds the particles in place
 and advances the grid's momentum alone: ``grid_gradient`` (the velocity gradient at the particles), ``eigen``,
-``stress_scatter`` (the stress' impulse), ``add_momentum``, ``grid_update``. A thixotropic material's
+``p2g`` without the transfer (the stress' impulse alone), ``add_momentum``, ``grid_update``. A thixotropic material's
 ``structure_update`` accumulates each particle's plastic shear strain (``OptionalPhysics``: it lowers the yield
 stress in ``p2g``; air drag and wall adhesion act in ``grid_update``). Every input a loss may depend on (particle
 state, material parameters, boundary parameters) is a Warp array, so Warp's generated adjoints give the gradients.
@@ -417,15 +417,20 @@ def build(scalar: type) -> SimpleNamespace:
     def p2g(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
             F: wp.array(dtype=mat33), mat: wp.array(dtype=scalar), model: int, p_vol: scalar, dt: scalar,
             inv_dx: scalar, eig_q: wp.array(dtype=mat33), eig_l: wp.array(dtype=vec3),
-            structure: wp.array(dtype=scalar), thixotropy: scalar, F_out: wp.array(dtype=mat33),
+            structure: wp.array(dtype=scalar), thixotropy: scalar, transfer: int, F_out: wp.array(dtype=mat33),
             grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3)):
+        """The constitutive update and the stress' impulse on the grid, and with ``transfer`` the particles' mass and
+        momentum too (else ``C`` is the grid's velocity gradient at particles held in place, ``v`` unread)."""
         p = wp.tid()
         Cp = C[p]
         F_new, tau = constitutive(F[p], Cp, mat, model, dt, eig_q[p], eig_l[p], yield_factor(structure, p, thixotropy))
         F_out[p] = F_new
         p_mass = mat[P_RHO] * p_vol
-        affine = (-dt * p_vol * scalar(4.0) * inv_dx * inv_dx) * tau + p_mass * Cp
-        mv = p_mass * v[p]
+        affine = (-dt * p_vol * scalar(4.0) * inv_dx * inv_dx) * tau
+        mv = vec3()
+        if transfer != 0:
+            affine = affine + p_mass * Cp
+            mv = p_mass * v[p]
         base, fx, W = stencil(x[p], inv_dx, grid_m.shape[0])
         dx = one / inv_dx
         for i in range(3):
@@ -437,7 +442,8 @@ def build(scalar: type) -> SimpleNamespace:
                     gj = base[1] + j
                     gk = base[2] + k
                     wp.atomic_add(grid_mv, gi, gj, gk, wgt * (mv + affine * dpos))
-                    wp.atomic_add(grid_m, gi, gj, gk, wgt * p_mass)
+                    if transfer != 0:
+                        wp.atomic_add(grid_m, gi, gj, gk, wgt * p_mass)
 
     @wp.func
     def interpolate(x: vec3, grid_v: wp.array3d(dtype=vec3), inv_dx: scalar):
@@ -463,26 +469,6 @@ def build(scalar: type) -> SimpleNamespace:
         p = wp.tid()
         _velocity, gradient = interpolate(x[p], grid_v, inv_dx)
         C_out[p] = gradient
-
-    @wp.kernel
-    def stress_scatter(x: wp.array(dtype=vec3), C: wp.array(dtype=mat33), F: wp.array(dtype=mat33),
-                       mat: wp.array(dtype=scalar), model: int, p_vol: scalar, dt: scalar, inv_dx: scalar,
-                       eig_q: wp.array(dtype=mat33), eig_l: wp.array(dtype=vec3), structure: wp.array(dtype=scalar),
-                       thixotropy: scalar, F_out: wp.array(dtype=mat33), grid_mv: wp.array3d(dtype=vec3)):
-        """``p2g`` less the particles' momentum: the constitutive update and the stress' impulse on the grid."""
-        p = wp.tid()
-        F_new, tau = constitutive(F[p], C[p], mat, model, dt, eig_q[p], eig_l[p],
-                                  yield_factor(structure, p, thixotropy))
-        F_out[p] = F_new
-        affine = (-dt * p_vol * scalar(4.0) * inv_dx * inv_dx) * tau
-        base, fx, W = stencil(x[p], inv_dx, grid_mv.shape[0])
-        dx = one / inv_dx
-        for i in range(3):
-            for j in range(3):
-                for k in range(3):
-                    wgt = W[i, 0] * W[j, 1] * W[k, 2]
-                    dpos = (node_offset(i, j, k) - fx) * dx
-                    wp.atomic_add(grid_mv, base[0] + i, base[1] + j, base[2] + k, wgt * (affine * dpos))
 
     @wp.kernel
     def add_momentum(grid_m: wp.array3d(dtype=scalar), grid_v: wp.array3d(dtype=vec3), offset: wp.vec3i,
@@ -668,7 +654,7 @@ def build(scalar: type) -> SimpleNamespace:
 
     return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, structure_update=structure_update, p2g=p2g,
                            reached_nodes=reached_nodes, mirror_fold=mirror_fold, grid_update=grid_update, g2p=g2p,
-                           grid_gradient=grid_gradient, stress_scatter=stress_scatter, add_momentum=add_momentum,
+                           grid_gradient=grid_gradient, add_momentum=add_momentum,
                            return_mapping=return_mapping, hb_excess=hb_excess_kernel)
 
 

@@ -412,16 +412,10 @@ class _Run:
         box = tuple(int(h - lo + 1) for lo, h in zip(low, high, strict=True))
         now, corner = s(step * self.dt), wp.vec3i(*low)
         with tape if tape is not None else contextlib.nullcontext():
-            if phase == 0:
-                self._launch("p2g", i, lambda: (
-                    k.p2g, len(x), [x, v, C, F, self.mat, self.material.model, s(self.particle_volume),
-                                    s(self.dt), s(inv_dx), eig_q, eig_l, structure, s(physics.thixotropy)],
-                    [F1, m, mv]))
-            else:
-                self._launch("stress_scatter", i, lambda: (
-                    k.stress_scatter, len(x), [x, rate, F, self.mat, self.material.model, s(self.particle_volume),
-                                               s(self.dt), s(inv_dx), eig_q, eig_l, structure,
-                                               s(physics.thixotropy)], [F1, mv]))
+            self._launch(f"p2g {phase == 0}", i, lambda: (
+                k.p2g, len(x), [x, v, rate, F, self.mat, self.material.model, s(self.particle_volume), s(self.dt),
+                                s(inv_dx), eig_q, eig_l, structure, s(physics.thixotropy), int(phase == 0)],
+                [F1, m, mv]))
             if sim.symmetry_node is not None:
                 self._launch(f"mirror_fold {phase == 0}", i, lambda: (
                     k.mirror_fold, (m.shape[0], m.shape[1], kernels.MIRROR_NODES + 1),
