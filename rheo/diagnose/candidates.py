@@ -155,10 +155,11 @@ class Law:
         law = ("tau_y", "K") if self.n is not None else ("tau_y", "K", "n")
         return law + ((self.candidate.name,) if self.candidate else ())
 
-    def unpack(self, x) -> tuple[dict[str, float], Effects]:
+    def unpack(self, x, effects: Effects | None = None) -> tuple[dict[str, float], Effects]:
+        """The law and the effects (``effects``, none by default, with the candidate's added) of a search vector."""
         values = np.exp(np.asarray(x[:2 if self.n is not None else 3], dtype=float))
         law = {"tau_y": values[0], "K": values[1], "n": self.n if self.n is not None else values[2]}
-        effects = Effects()
+        effects = effects or Effects()
         if self.candidate is not None:
             law, effects = self.candidate.apply(self.candidate.value(float(x[-1])), law, effects)
         return law, effects

@@ -81,13 +81,14 @@ class Comparison:
 
 
 class DamBreakTarget:
-    """One setup's silhouettes and its simulated scene; the first frame comes ``min_offset`` to ``max_offset``
-    seconds after the release; every frame makes the loss but every ``held_out_every``-th (frames k, 2k, ...; none
-    by default), held out."""
+    """One setup's silhouettes and its simulated scene with ``effects`` (none by default); the first frame comes
+    ``min_offset`` to ``max_offset`` seconds after the release; every frame makes the loss but every
+    ``held_out_every``-th (frames k, 2k, ...; none by default), held out."""
 
     def __init__(self, scene: DamBreakScene, max_offset: float, elastic: tuple[float, float],
-                 min_offset: float = 0.0, held_out_every: int | None = None) -> None:
+                 min_offset: float = 0.0, held_out_every: int | None = None, effects: Effects | None = None) -> None:
         self.scene = scene
+        self.effects = effects or Effects()  # the physics every material is simulated with
         self.setup = scene.setup
         self.masks = self.setup.masks
         self.fitted = np.ones(len(self.masks), bool)
@@ -116,7 +117,8 @@ class DamBreakTarget:
     def simulate(self, tau_y: float, K: float, n: float, effects: Effects | None = None) -> Trajectory:
         """The rollout every candidate offset's frames are taken from, sampled every ``OFFSET_STEP`` s."""
         steps = self.offsets + (len(self.masks) - 1) * self.frame_steps
-        return self.scene.rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP, effects)
+        return self.scene.rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP,
+                                  self.effects if effects is None else effects)
 
     def score(self, trajectory: Trajectory) -> Comparison:
         """The rollout's best agreement with the recording over the candidate offsets."""
@@ -164,14 +166,15 @@ def setup_files(records: list[str], masks: list[str]) -> dict[str, tuple[str, st
 
 
 def target(setup: Setup, simulation: dict) -> DamBreakTarget:
-    """A setup as a target, simulated with ``simulation``'s grid, particles, time step and elastic constants; its
-    first frame ``min_offset`` (default 0) to ``max_offset`` s after the release, every ``held_out_every``-th frame
-    (if given) held out of the loss."""
+    """A setup as a target, simulated with ``simulation``'s grid, particles, time step, elastic constants and wall
+    slip (if given); its first frame ``min_offset`` (default 0) to ``max_offset`` s after the release, every
+    ``held_out_every``-th frame (if given) held out of the loss."""
     scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
                             simulation["particles_per_cell"], cfl=simulation["cfl"],
                             transfer_cfl=simulation.get("transfer_cfl"))
     return DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]),
-                          simulation.get("min_offset", 0.0), simulation.get("held_out_every"))
+                          simulation.get("min_offset", 0.0), simulation.get("held_out_every"),
+                          Effects(wall_slip=simulation.get("wall_slip")))
 
 
 def targets(setups: dict[str, tuple[str, str]], simulation: dict) -> dict[str, DamBreakTarget]:
@@ -191,7 +194,7 @@ def comparisons(setups: dict[str, tuple[str, str]], simulation: dict,
 
 
 def compare_law(target: DamBreakTarget, law: Law, x: np.ndarray) -> Comparison:
-    values, effects = law.unpack(x)
+    values, effects = law.unpack(x, target.effects)
     return target.compare(**values, effects=effects)
 
 

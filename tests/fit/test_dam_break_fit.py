@@ -4,16 +4,19 @@ again on silhouettes drawn from a known rollout."""
 import numpy as np
 import pytest
 
-from rheo.experiments.dam_break import dam_break_scene
+from rheo.diagnose.candidates import CANDIDATES, Law
+from rheo.experiments.dam_break import Effects, dam_break_scene
 from rheo.fit.dam_break import (
     OFFSET_STEP,
     DamBreakTarget,
+    compare_law,
     flow_index_starts,
     from_stress_split,
     shear_rates,
     skin,
     stress_level,
     stress_split,
+    target,
 )
 from rheo.fit.search import simplex_search
 from rheo.render.silhouette import boundary_distance, distance_to
@@ -53,6 +56,20 @@ def test_the_first_frames_offset_is_found_on_silhouettes_of_a_known_rollout(chan
     assert result.offset == pytest.approx(offset_steps * OFFSET_STEP) and result.loss == 0.0
     assert np.all(result.outflow_iou[1:] == 1.0) and np.all(result.shear_rates > 0.1)
     assert target.compare(tau_y=50.0, K=0.5, n=0.8).loss > 0.05  # a stronger material flows less
+
+
+def test_a_wall_slip_in_the_settings_is_the_physics_every_law_and_candidate_is_simulated_with(channel):
+    setup = channel((0.0, 0.07, -0.01, 0.05), frames=2)
+    simulation = {"cells_per_height": 4, "cells_across": 4, "particles_per_cell": 2, "cfl": 0.8, "mu": 2e4,
+                  "lam": 2e4, "max_offset": 0.02}
+    law = np.log([5.0, 0.5, 0.8])
+    sticky = compare_law(target(setup, simulation), Law(), law)
+    slipping = target(setup, {**simulation, "wall_slip": 300.0})
+    explicit = slipping.compare(5.0, 0.5, 0.8, Effects(wall_slip=300.0))
+    assert compare_law(slipping, Law(), law).loss == explicit.loss != sticky.loss
+    # a candidate adds its effect to the set one
+    gated = compare_law(slipping, Law(candidate=CANDIDATES["gate_lift"]), np.r_[law, np.log(0.05)])
+    assert gated.loss == slipping.compare(5.0, 0.5, 0.8, Effects(wall_slip=300.0, gate_lift_time=0.05)).loss
 
 
 def test_the_stress_split_is_the_stress_at_the_rate_and_the_yield_stress_share_and_inverts():
