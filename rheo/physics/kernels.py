@@ -543,6 +543,13 @@ def build(scalar: type) -> SimpleNamespace:
         return v_col + wp.max(one - cut / speed, zero) * rel
 
     @wp.func
+    def collider_frame(node: vec3, time: scalar, c: int, timing: wp.array2d(dtype=scalar),
+                       bparams: wp.array2d(dtype=scalar)) -> vec3:
+        """``node`` in collider c's own frame: moved back by how far the collider has travelled by ``time``."""
+        vel = vec3(bparams[c, B_VX], bparams[c, B_VY], bparams[c, B_VZ])
+        return node - (wp.clamp(time, timing[c, 0], timing[c, 1]) - timing[c, 0]) * vel
+
+    @wp.func
     def collide(v: vec3, node: vec3, m: scalar, time: scalar, dt: scalar, dx: scalar, c: int,
                 shapes: wp.array(dtype=int), laws: wp.array(dtype=int), geom: wp.array2d(dtype=scalar),
                 timing: wp.array2d(dtype=scalar), bparams: wp.array2d(dtype=scalar), adhesion_cut: scalar,
@@ -553,12 +560,10 @@ def build(scalar: type) -> SimpleNamespace:
         # bparams[c, B_FRICTION], Pa s/m) acts, implicitly, on the nodes of its face: dx^2 of wall each, in full
         # where the node holds the ``face_mass`` material on one side of a face gives it, else in proportion.
         vel = vec3(bparams[c, B_VX], bparams[c, B_VY], bparams[c, B_VZ])
-        t0 = timing[c, 0]
-        t1 = timing[c, 1]
         v_col = vec3()
-        if time >= t0 and time < t1:
+        if time >= timing[c, 0] and time < timing[c, 1]:
             v_col = vel
-        local = node - (wp.clamp(time, t0, t1) - t0) * vel
+        local = collider_frame(node, time, c, timing, bparams)
         out = v
         sdf = shape_sdf(shapes[c], local, geom, c)
         if sdf <= zero:
@@ -604,6 +609,57 @@ def build(scalar: type) -> SimpleNamespace:
             if (lo[a] < BOUND and v[a] < zero) or (lo[a] > n - BOUND and v[a] > zero):
                 keep[a] = zero
         grid_v[i, j, k] = wp.cw_mul(v, keep)
+
+    @wp.kernel
+    def capillary_stress(grid_m: wp.array3d(dtype=scalar), inv_full_mass: scalar, surface_tension: scalar,
+                         time: scalar, dx: scalar, shapes: wp.array(dtype=int), geom: wp.array2d(dtype=scalar),
+                         timing: wp.array2d(dtype=scalar), bparams: wp.array2d(dtype=scalar), offset: wp.vec3i,
+                         cell_stress: wp.array3d(dtype=mat33)):
+        """The capillary stress gamma (|g| I - g g^T / |g|) of the continuum surface stress model in each cell (index
+        of its lowest node, from ``offset``), g the gradient at the cell's centre of the material's volume fraction
+        (node mass / ``1 / inv_full_mass``, trilinear); zero in cells that touch a collider (neutral walls)."""
+        i, j, k = wp.tid()
+        i += offset[0]
+        j += offset[1]
+        k += offset[2]
+        g = vec3()
+        solid = int(0)  # noqa: UP018, RUF046 (a variable for Warp, not a constant)
+        count = shapes.shape[0]
+        for a in range(2):
+            for b in range(2):
+                for d in range(2):
+                    corner = node_offset(a, b, d)
+                    fraction = grid_m[i + a, j + b, k + d] * inv_full_mass
+                    g += fraction * (scalar(2.0) * corner - vec3(one, one, one))
+                    node = (vec3(scalar(i), scalar(j), scalar(k)) + corner) * dx
+                    for c in range(MAX_COLLIDERS):
+                        if c < count:
+                            local = collider_frame(node, time, c, timing, bparams)
+                            if shape_sdf(shapes[c], local, geom, c) <= zero:
+                                solid = 1
+        g = g * (scalar(0.25) / dx)
+        size = wp.length(g)
+        stress = mat33()
+        if solid == 0 and size > tiny:
+            stress = surface_tension * (size * wp.identity(n=3, dtype=scalar) - wp.outer(g, g) / size)
+        cell_stress[i, j, k] = stress
+
+    @wp.kernel
+    def capillary_force(cell_stress: wp.array3d(dtype=mat33), dt: scalar, dx: scalar, offset: wp.vec3i,
+                        grid_mv: wp.array3d(dtype=vec3)):
+        """Adds to each node's momentum the impulse of the cells' capillary stress around it over the step:
+        -sum over its cells of dx^3 stress grad N (N the node's trilinear shape function, at the cell's centre)."""
+        i, j, k = wp.tid()
+        i += offset[0]
+        j += offset[1]
+        k += offset[2]
+        force = vec3()
+        for a in range(2):
+            for b in range(2):
+                for d in range(2):
+                    side = scalar(2.0) * node_offset(a, b, d) - vec3(one, one, one)
+                    force += cell_stress[i - 1 + a, j - 1 + b, k - 1 + d] * side
+        grid_mv[i, j, k] = grid_mv[i, j, k] + (scalar(0.25) * dt * dx * dx) * force
 
     @wp.kernel
     def reached_nodes(x: wp.array(dtype=vec3), inv_dx: scalar, n: int, bounds: wp.array(dtype=int)):
@@ -655,6 +711,7 @@ def build(scalar: type) -> SimpleNamespace:
     return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, structure_update=structure_update, p2g=p2g,
                            reached_nodes=reached_nodes, mirror_fold=mirror_fold, grid_update=grid_update, g2p=g2p,
                            grid_gradient=grid_gradient, add_momentum=add_momentum,
+                           capillary_stress=capillary_stress, capillary_force=capillary_force,
                            return_mapping=return_mapping, hb_excess=hb_excess_kernel)
 
 

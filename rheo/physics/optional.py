@@ -19,11 +19,14 @@ class OptionalPhysics:
     ``thixotropy``: the yield stress falls to tau_y exp(-thixotropy gamma_p) as the material accumulates plastic
     shear strain gamma_p (its structure breaks down; no rebuilding over the seconds simulated).
     ``wall_adhesion`` (Pa): a traction with which every non-sticky collider holds the material touching it, against
-    sliding and separating alike and whatever the pressure (unlike Coulomb friction)."""
+    sliding and separating alike and whatever the pressure (unlike Coulomb friction).
+    ``surface_tension`` (N/m): the free surface's tension, as the continuum surface stress of the material's volume
+    fraction on the grid (Lafaurie et al. 1994); the walls are neutral (a contact angle left free)."""
 
     air_drag: float = 0.0
     thixotropy: float = 0.0
     wall_adhesion: float = 0.0
+    surface_tension: float = 0.0
 
     def __post_init__(self) -> None:
         for f in fields(self):

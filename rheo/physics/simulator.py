@@ -32,6 +32,8 @@ logger = logging.getLogger(__name__)
 # arguments of kernels.grid_update that change every step
 GRID_UPDATE_TIME, GRID_UPDATE_LOW = 3, 12
 ADD_MOMENTUM_LOW = 2
+CAPILLARY_STRESS_TIME, CAPILLARY_STRESS_LOW = 3, 9
+CAPILLARY_FORCE_LOW = 3
 # the default step: this share of the time a wave (elastic, plus the fastest flow) takes to cross a cell
 DEFAULT_CFL = 0.4
 
@@ -87,8 +89,8 @@ class Simulator:
     symmetric about that plane (with its colliders): the grid gets their mirror images' share too, so the half
     moves exactly as in the whole flow at half the cost. Such rollouts are not differentiated.
 
-    ``physics`` switches on effects beyond the base model (``OptionalPhysics``); a thixotropic rollout is not
-    differentiated.
+    ``physics`` switches on effects beyond the base model (``OptionalPhysics``); a thixotropic rollout, or one with
+    surface tension, is not differentiated.
 
     ``dt`` fixes the step of every rollout (rounded to divide the frame interval); without it each rollout takes the
     largest step its material's stability limit allows; an unstable rollout is retried at half the step (and half the
@@ -169,6 +171,9 @@ class Simulator:
         """The largest step that divides the frame interval and obeys the CFL and viscous limits."""
         material = material or self.material
         dt_max = min(self.cfl * self.dx / (material.wave_speed() + max_speed), material.diffusive_time_step(self.dx))
+        tension = self.physics.surface_tension
+        if tension > 0.0:  # the period of the shortest capillary wave the grid holds, over 2 pi
+            dt_max = min(dt_max, math.sqrt(material.density * self.dx**3 / (2 * math.pi * tension)))
         substeps = max(1, math.ceil(frame_dt / dt_max - 1e-9))
         return frame_dt / substeps, substeps
 
@@ -353,6 +358,7 @@ class _Run:
         self.adhesion_cut = sim.physics.wall_adhesion * dt / (material.density * sim.dx)
         # a wall-face node's mass under material on one side: half a cell's (the B-spline's weight beyond the face)
         self.face_mass = 0.5 * material.density * sim.dx**3
+        self.full_mass = material.density * sim.dx**3  # a node's mass inside the material at rest
         self._recorded: dict[tuple[str, int], wp.Launch] = {}
 
     def _launch(self, name: str, i: int, build, dim=None, changed: dict[int, object] | None = None) -> None:
@@ -423,6 +429,16 @@ class _Run:
             if phase > 0:
                 self._launch("add_momentum", i, lambda: (k.add_momentum, box, [m, gv, corner], [mv]),
                              dim=box, changed={ADD_MOMENTUM_LOW: corner})
+            if physics.surface_tension > 0.0:
+                cells, cell_corner = tuple(b + 1 for b in box), wp.vec3i(*(low - 1))
+                self._launch("capillary_stress", i, lambda: (
+                    k.capillary_stress, cells, [m, s(1.0 / self.full_mass), s(physics.surface_tension), now,
+                                                s(sim.dx), self.shapes, self.geom, self.timing, self.bnd,
+                                                cell_corner], [self.cell_stress]),
+                             dim=cells, changed={CAPILLARY_STRESS_TIME: now, CAPILLARY_STRESS_LOW: cell_corner})
+                self._launch("capillary_force", i, lambda: (
+                    k.capillary_force, box, [self.cell_stress, s(self.dt), s(sim.dx), corner], [mv]),
+                             dim=box, changed={CAPILLARY_FORCE_LOW: corner})
             self._launch("grid_update", i, lambda: (
                 k.grid_update, box, [m, mv, s(self.dt), now, s(sim.dx), k.vec3(*sim.gravity), self.shapes, self.laws,
                                      self.geom, self.timing, self.bnd, s(self.min_mass), corner,
@@ -467,6 +483,8 @@ class _Run:
             raise SimulationError("a rollout about a plane of symmetry cannot be differentiated")
         if requires_grad and sim.physics.thixotropy > 0.0:
             raise SimulationError("a thixotropic rollout cannot be differentiated")
+        if requires_grad and sim.physics.surface_tension > 0.0:
+            raise SimulationError("a rollout with surface tension cannot be differentiated")
         if requires_grad and self.steps_per_transfer > 1:
             raise SimulationError("a rollout with transfers every few steps (transfer_dt) cannot be differentiated")
         self.requires_grad = requires_grad
@@ -478,6 +496,8 @@ class _Run:
         self.buf = sim._acquire(n, self.chunk, requires_grad)
         if self.steps_per_transfer > 1:
             self.rate = wp.zeros(n, dtype=sim.kernels.mat33)
+        if sim.physics.surface_tension > 0.0:
+            self.cell_stress = wp.zeros((sim.resolution,) * 3, dtype=sim.kernels.mat33)
         eye = torch.eye(3, dtype=sim.dtype).expand(n, 3, 3)
         state0 = (x0.detach(), v0.detach(), torch.zeros(n, 3, 3, dtype=sim.dtype), eye)
         record = [torch.empty((self.frames + 1, *t.shape), dtype=sim.dtype) for t in state0]

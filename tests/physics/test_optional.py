@@ -1,5 +1,5 @@
-"""Optional physics against closed forms: quadratic air drag, wall adhesion's hold, thixotropic breakdown; each
-off at its null value."""
+"""Optional physics against closed forms: quadratic air drag, wall adhesion's hold, thixotropic breakdown, a drop's
+capillary pressure and oscillation; each off at its null value."""
 
 import math
 
@@ -8,8 +8,8 @@ import pytest
 import torch
 import warp as wp
 
-from rheo.geometry.sampling import box
-from rheo.physics import Box, Floor, HerschelBulkley, NeoHookean, OptionalPhysics, Simulator
+from rheo.geometry.sampling import box, lattice_fill
+from rheo.physics import Box, Floor, HerschelBulkley, NeoHookean, NewtonianFluid, OptionalPhysics, Simulator
 from rheo.physics import kernels as kn
 from rheo.physics.simulator import SimulationError
 
@@ -94,11 +94,51 @@ def test_thixotropic_yield_stress_decays_with_the_plastic_strain(thixotropy):
     assert np.allclose(stress[late], expected, rtol=0.02)
 
 
+KAPPA, GAMMA, RADIUS = 1.0e4, 12.5, 0.25
+
+
+def _drop(resolution: int, axes, frames: int, frame_dt: float, viscosity: float):
+    """A free drop of a nearly incompressible liquid (bulk modulus ``KAPPA``) with surface tension ``GAMMA``, no
+    gravity: its ellipsoid ``axes`` (m) centred in the unit domain at rest at t = 0."""
+    sim = Simulator(NewtonianFluid(viscosity=viscosity, bulk_modulus=KAPPA), resolution=resolution,
+                    gravity=(0.0, 0.0, 0.0), dtype=torch.float64, physics=OptionalPhysics(surface_tension=GAMMA))
+    axes = torch.tensor(axes, dtype=torch.float64)
+    x0, vol = lattice_fill(lambda x: (((x - 0.5) / axes) ** 2).sum(-1) < 1.0, (0.1,) * 3, (0.9,) * 3, sim.dx / 2)
+    return sim, sim.rollout(x0, torch.zeros(3), frames=frames, frame_dt=frame_dt, particle_volume=vol)
+
+
+@pytest.mark.parametrize("resolution", [24, 32])
+def test_surface_tension_holds_laplace_s_pressure_in_a_drop(resolution):
+    """Inside a spherical drop the pressure is 2 gamma / R (Laplace): -kappa ln J averaged over the drop's core
+    (more than 3 cells in) and over 0.16-0.96 s, a few periods of the drop's undamped breathing."""
+    sim, tr = _drop(resolution, (RADIUS,) * 3, frames=48, frame_dt=0.02, viscosity=5.0)
+    core = (tr.x[8:] - 0.5).norm(dim=-1) < RADIUS - 3 * sim.dx
+    pressure = -KAPPA * torch.log(torch.linalg.det(tr.F[8:]))
+    mean = float(((pressure * core).sum(dim=1) / core.sum(dim=1)).mean())
+    assert mean == pytest.approx(2 * GAMMA / RADIUS, rel=0.05)
+
+
+def test_surface_tension_makes_a_drop_oscillate_at_rayleigh_s_frequency():
+    """A drop stretched 10 % along y oscillates in its l = 2 mode: omega^2 = 8 gamma / (rho R^3) less the viscous
+    decay rate's square (Lamb: 5 nu / R^2). Its period, between the first and third zero crossings of the second
+    moments' anisotropy, within 5 %."""
+    stretch, frame_dt, viscosity = 1.1, 0.05, 1.0
+    _sim, tr = _drop(24, (RADIUS / stretch**0.5, RADIUS * stretch, RADIUS / stretch**0.5), 64, frame_dt, viscosity)
+    d = (tr.x - tr.x.mean(dim=1, keepdim=True)) ** 2
+    anisotropy = (d[..., 1].mean(1) - 0.5 * (d[..., 0].mean(1) + d[..., 2].mean(1))).numpy()
+    crossings = [frame_dt * (i + anisotropy[i] / (anisotropy[i] - anisotropy[i + 1]))
+                 for i in range(len(anisotropy) - 1) if anisotropy[i] * anisotropy[i + 1] < 0]
+    omega2 = 8 * GAMMA / (1000.0 * RADIUS**3) - (5 * viscosity / 1000.0 / RADIUS**2) ** 2
+    assert len(crossings) >= 3
+    assert crossings[2] - crossings[0] == pytest.approx(2 * math.pi / math.sqrt(omega2), rel=0.05)
+
+
 def test_optional_physics_at_their_null_values_change_nothing_and_thixotropy_is_not_differentiated():
     material = HerschelBulkley(tau_y=50.0, K=5.0, n=0.5, mu=2.0e3, lam=2.0e3)
     x0, vol = box((0.4, 0.2, 0.4), (0.6, 0.4, 0.6), 1.0 / 32)
     runs = []
-    for physics in (OptionalPhysics(), OptionalPhysics(air_drag=1.0, thixotropy=1.0, wall_adhesion=100.0)):
+    for physics in (OptionalPhysics(), OptionalPhysics(air_drag=1.0, thixotropy=1.0, wall_adhesion=100.0,
+                                                            surface_tension=0.05)):
         sim = Simulator(material, resolution=16, colliders=[Floor(height=0.19, contact="slip")], physics=physics)
         runs.append(sim.rollout(x0, torch.zeros(3), frames=2, frame_dt=0.05, particle_volume=vol).x)
     base = Simulator(material, resolution=16, colliders=[Floor(height=0.19, contact="slip")])
@@ -107,5 +147,8 @@ def test_optional_physics_at_their_null_values_change_nothing_and_thixotropy_is_
     thixotropic = Simulator(material, resolution=16, physics=OptionalPhysics(thixotropy=1.0))
     with pytest.raises(SimulationError, match="thixotropic"):
         thixotropic.rollout(x0, torch.zeros(3, requires_grad=True), frames=1, frame_dt=0.05, particle_volume=vol)
+    capillary = Simulator(material, resolution=16, physics=OptionalPhysics(surface_tension=0.05))
+    with pytest.raises(SimulationError, match="surface tension"):
+        capillary.rollout(x0, torch.zeros(3, requires_grad=True), frames=1, frame_dt=0.05, particle_volume=vol)
     with pytest.raises(ValueError, match="air_drag"):
         OptionalPhysics(air_drag=-1.0)
