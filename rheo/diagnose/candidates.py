@@ -1,10 +1,10 @@
 """The effects a diagnosis can name: each one parameter that the base dam-break model holds at its null value.
 
-Seven are physics a recording may show (floor friction, wall slip, wall adhesion, a gate lifted at a finite speed,
-shear thinning, thixotropy, air drag); two are decoys, not physics of the material (gravity tilted, a wrong density): a
-diagnosis that names them has found a free parameter that fits, not an effect. Each is searched on a coordinate
-(its logarithm, or the value itself for the tilt) within a box, climbing rungs of magnitude outward from the null
-(both ways for the two-sided decoys).
+Eight are physics a recording may show (floor friction, wall slip, wall adhesion, a gate lifted at a finite speed,
+shear thinning, thixotropy, surface tension, air drag); two are decoys, not physics of the material (gravity
+tilted, a wrong density): a diagnosis that names them has found a free parameter that fits, not an effect. Each is
+searched on a coordinate (its logarithm, or the value itself for the tilt) within a box, climbing rungs of
+magnitude outward from the null (both ways for the two-sided decoys).
 """
 
 from __future__ import annotations
@@ -75,6 +75,8 @@ class Candidate:
                 return {**law, "n": value}, effects
             case "thixotropy":
                 return law, dataclasses.replace(effects, physics=dataclasses.replace(physics, thixotropy=value))
+            case "surface_tension":
+                return law, dataclasses.replace(effects, physics=dataclasses.replace(physics, surface_tension=value))
             case "air_drag":
                 return law, dataclasses.replace(effects, physics=dataclasses.replace(physics, air_drag=value))
             case "gravity_tilt":
@@ -121,6 +123,9 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
               ((0.85, 0.7, 0.55, 0.4),), step=0.3),
     Candidate("thixotropy", "thixotropy (the yield stress falls as the material is sheared)", "breakdown per unit "
               "plastic shear strain", "", 0.0, 0.01, 10.0, ((0.1, 0.3, 1.0, 3.0),)),
+    # water's tension is 0.072 N/m, a surfactant's solutions' 0.025-0.04
+    Candidate("surface_tension", "surface tension (the free surface pulls the material together)", "tension",
+              "N/m", 0.0, 0.003, 0.3, ((0.01, 0.03, 0.09),)),
     Candidate("air_drag", "air drag", "quadratic drag coefficient", "1/m", 0.0, 0.1, 100.0,
               ((2.0, 6.0, 20.0, 60.0),)),
     Candidate("gravity_tilt", "gravity tilted along the channel (decoy)", "tilt", "deg", 0.0, -15.0, 15.0,

@@ -43,7 +43,7 @@ class Effects:
     the floor). ``gate_lift_time`` (s): a gate at the cuboid's front slides up at a constant speed and clears the
     material's height after this time (0: released at once). ``gravity_tilt`` (rad): gravity leans towards +x,
     down the channel (a table or camera not level). ``density_factor``: the material's density times this (a wrong
-    density). ``physics``: the engine's optional physics (air drag, thixotropy, wall adhesion)."""
+    density). ``physics``: the engine's optional physics (air drag, thixotropy, wall adhesion, surface tension)."""
 
     floor_friction: float | None = None
     wall_slip: float | None = None

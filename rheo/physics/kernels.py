@@ -8,8 +8,10 @@ images' share to the grid after ``p2g``. Between transfers a few steps apart, a 
 and advances the grid's momentum alone: ``grid_gradient`` (the velocity gradient at the particles), ``eigen``,
 ``p2g`` without the transfer (the stress' impulse alone), ``add_momentum``, ``grid_update``. A thixotropic material's
 ``structure_update`` accumulates each particle's plastic shear strain (``OptionalPhysics``: it lowers the yield
-stress in ``p2g``; air drag and wall adhesion act in ``grid_update``). Every input a loss may depend on (particle
-state, material parameters, boundary parameters) is a Warp array, so Warp's generated adjoints give the gradients.
+stress in ``p2g``; air drag and wall adhesion act in ``grid_update``; surface tension is the impulse that
+``capillary_force`` adds to the grid's momentum from the cells' ``capillary_stress``, before ``grid_update``).
+Every input a loss may depend on (particle state, material parameters, boundary parameters) is a Warp array, so
+Warp's generated adjoints give the gradients.
 The plastic return on Hencky strain has a hand-written adjoint (divided differences of the eigenvalues) that stays
 finite at repeated eigenvalues (undeformed material) and needs no second decomposition in the backward pass.
 
