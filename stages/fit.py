@@ -122,13 +122,13 @@ if not warmup:
         entry = {"value": interval.value, "ci95": [interval.low, interval.high], "ci95_open": list(interval.open),
                  "determined": interval.determined, "held_at_initial_guess": name in result.held,
                  "initial": initial[name]}
-        if name in truth:
-            entry.update(truth=truth[name], error=interval.value / truth[name] - 1.0)
+        if name in truth:  # no error where the parameter was held at its guess: it was not recovered
+            entry.update(truth=truth[name], error=None if name in result.held else interval.value / truth[name] - 1.0)
         params[name] = entry
-        log.info("%s = %.4g, 95%% interval [%.4g, %.4g]%s%s", name, interval.value, interval.low, interval.high,
+        log.info("%s = %.4g, tolerance interval [%.4g, %.4g]%s%s", name, interval.value, interval.low, interval.high,
                  "" if interval.determined else " (not determined by the recording"
                  + (": held at the initial guess)" if name in result.held else ")"),
-                 f", truth {truth[name]:.4g} ({entry['error']:+.1%})" if name in truth else "")
+                 "" if entry.get("error") is None else f", truth {truth[name]:.4g} ({entry['error']:+.1%})")
     hb = material({**exp["material"], **{n: p["value"] for n, p in params.items()}})
     write_json_atomic(smk.output.params, {
         "convention": exp["material"]["convention"], "parameters": params, "evidence": result.evidence,

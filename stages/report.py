@@ -71,7 +71,8 @@ for view in obs.views:
     animations.append(gif_tag(frames, f"{view.name}: observed (left), learned (right)"))
 sections.append(("Every view, animated", "".join(animations)))
 
-# the flow curve, with a band from the parameters' intervals (independent normal log-parameters)
+# the flow curve, with a band from the parameters' tolerance intervals (each taken as the central 95 % of an
+# independent normal log-parameter)
 draws = log_draws([Interval(p["value"], *p["ci95"]) for p in params["parameters"].values()])
 density_value = params["herschel_bulkley"]["density"]
 samples = np.array([simulator_parameters(dict(zip(names, torch.exp(torch.as_tensor(d)), strict=True)),
@@ -83,8 +84,9 @@ if truth:
                              density_value)
     true_hb = tuple(t[1:4].tolist())
 sections.append(("Flow curve", figure_tag(flow_curve_figure(hb["tau_y"], hb["K"], hb["n"], samples, true_hb),
-                                          "shear stress against shear rate, 95 % band (each parameter "
-                                          "within a factor 55 of its value)")))
+                                          "shear stress against shear rate; band: the curves of the "
+                                          "parameters drawn within their tolerance intervals (coverage not "
+                                          "calibrated)")))
 sections.append(("Prediction on a new shape", image_tag(Path(smk.input.novel).read_bytes(), "png",
                                                        f"{exp['novel']['mesh']} with the recovered material "
                                                        "(video: novel/bunny.mp4)")))

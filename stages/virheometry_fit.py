@@ -120,7 +120,7 @@ params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determine
 if law.n is not None:
     params[RESULT_KEYS["n"]] = {"value": law.n, "ci95": [law.n, law.n], "determined": True, "fixed": True}
 for n, i in intervals.items():
-    log.info("%s = %.4g, 95%% interval [%.4g, %.4g]%s", n, i.value, i.low, i.high,
+    log.info("%s = %.4g, tolerance interval [%.4g, %.4g]%s", n, i.value, i.low, i.high,
              "" if i.determined else " (not determined by the recordings)")
 if band is not None:
     log.info("shear rates reached (5th-95th percentile of moving particles): %.3g-%.3g 1/s", *band)

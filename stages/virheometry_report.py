@@ -37,7 +37,7 @@ def spread_text(fit: dict) -> str:
 
 band = params["shear_rate_band_per_s"]
 reached = "none: nothing moved" if band is None else f"{band[0]:.3g}-{band[1]:.3g} 1/s"
-sections = [("Recovered law", table_tag(["parameter", "value", "95 % interval", "determined"], law_rows(params))
+sections = [("Recovered law", table_tag(["parameter", "value", "tolerance interval", "determined"], law_rows(params))
              + f"<p>Each interval spans the region where a quadratic surface fitted to the losses around the "
              f"estimate stays within the tolerance ({params['tolerance']:.0%}) of its lowest, the parameters' "
              f"trade-offs included, and the evaluated materials within the tolerance of the best; an end marked "
@@ -62,7 +62,7 @@ sections.append(("Flow curve", figure_tag(flow_figure(law, tolerated_laws, band,
                                           "recovered law; band: the curves of every evaluated material within the "
                                           "tolerance of the best") + comparison))
 if smk.input.single:
-    header = ["fit", *[f"{label} 95 % interval (width, factor)" for label in KEYS.values()],
+    header = ["fit", *[f"{label} tolerance interval (width, factor)" for label in KEYS.values()],
               "evaluated materials within the tolerance"]
     rows = []
     for path in [*smk.input.single, smk.input.params]:

@@ -107,7 +107,7 @@ class Diagnosis:
 
 
 def law_steps(names: tuple[str, ...], intervals: dict[str, tuple[float, float]], largest: float) -> np.ndarray:
-    """The initial simplex of a refit's law (log units): each parameter's 95 % interval in the base fit, as a
+    """The initial simplex of a refit's law (log units): each parameter's tolerance interval in the base fit, as a
     half-width in log units, at least ``MIN_LAW_STEP`` and at most ``largest``. The loss may be ten times as sensitive
     to one parameter as to another; a step far wider than the interval spends a short refit's evaluations on points
     many times the base loss."""
@@ -117,7 +117,7 @@ def law_steps(names: tuple[str, ...], intervals: dict[str, tuple[float, float]],
 def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings: dict, settings: dict,
              base_values: dict[str, float], base_intervals: dict[str, tuple[float, float]], log: EvaluationLog,
              workers: int, on_evaluation: Callable[[str, np.ndarray, float], None] = lambda *_: None) -> Diagnosis:
-    """Diagnose the fit ``base_values`` (tau_y, K, n; 95 % intervals ``base_intervals``) of the ``setups`` (name:
+    """Diagnose the fit ``base_values`` (tau_y, K, n; tolerance intervals ``base_intervals``) of the ``setups`` (name:
     (setup.json, masks.npz)), fitted with ``fit_settings`` (its boxes, its fixed flow index) on ``simulation``'s grid.
     ``settings``: ``candidates`` (names), ``rung_evaluations`` (the law's refit at each rung of a profile),
     ``stress_step`` and ``share_step`` (its initial simplex in the law's stress and the yield stress' share of it,

@@ -1,13 +1,13 @@
 """Concealed-effect dam breaks: a virtual lab films a dam break with one effect switched on that the fit's base model
 lacks (or none), and neither the fit nor the diagnosis is told which.
 
-The lab simulates on the fit's grid with its own particles (more per cell) and draws the material with the virtual
-lab's renderer (splats of another radius, supersampled), so the fit never sees its own model's output; a finer lab
-grid would hide the effects that act through grid-set shear rates and strains (see the config schema's ``lab``). The
-recording takes the form of imported ViRheometry setups (setup.json and masks.npz: silhouettes that include the
-container), one per channel geometry of the scene, as the real recordings come in pairs (a low and a tall column):
-one geometry alone lets a Bingham law mimic shear thinning. The first frame comes one frame interval after the
-release, which the lab knows.
+The lab simulates with the fit's simulator, on its grid and time step, with its own particles (more per cell), and
+draws the material with the virtual lab's renderer (splats of another radius, supersampled): only the particles and
+the renderer differ from the fit's model, so the cases are close to an inverse crime. The recording takes the form
+of imported ViRheometry setups (setup.json and masks.npz: silhouettes that include the container), one per channel
+geometry of the scene, as the real recordings come in pairs (a low and a tall column): one geometry alone lets a
+Bingham law mimic shear thinning. The first frame comes one frame interval after the release, which the fit is
+told.
 """
 
 from __future__ import annotations

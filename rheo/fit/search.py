@@ -199,7 +199,7 @@ def start_searches(evaluate: Evaluate, starts: Sequence[np.ndarray], step: float
 
 @dataclass
 class Estimate:
-    """A fit's result: log-parameters, loss, 95 % intervals, the parameters held at their initial guess because the
+    """A fit's result: log-parameters, loss, tolerance intervals, the parameters held at their initial guess because the
     recordings do not determine them, the evaluated materials within the tolerance of the best (of the search with
     every parameter free) and the evidence behind the intervals."""
 

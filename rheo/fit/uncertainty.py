@@ -1,4 +1,4 @@
-"""Approximate 95 % intervals of fitted parameters.
+"""Tolerance intervals of fitted parameters (their coverage is not calibrated).
 
 The fit's model is never exact (particles instead of a continuum, disc silhouettes instead of the camera's), so
 the loss has a floor well above any noise; materials whose loss lies within a tolerance of the best (the model's
@@ -16,13 +16,13 @@ from dataclasses import dataclass
 import numpy as np
 
 Z95 = 1.959964
-# A parameter is determined when its 95 % interval spans less than this factor (low to high) and is closed.
+# A parameter is determined when its tolerance interval spans less than this factor (low to high) and is closed.
 DETERMINED_SPAN = 4.0
 
 
 @dataclass
 class Interval:
-    """A parameter's value and 95 % interval; an open end (``open``: low, high) is a lower bound on the interval's
+    """A parameter's value and tolerance interval; an open end (``open``: low, high) is a lower bound on the interval's
     reach there (the region within the tolerance goes on past what the fit evaluated)."""
 
     value: float
@@ -36,12 +36,12 @@ class Interval:
 
     @property
     def sigma_log(self) -> float:
-        """The standard deviation of the normal log-parameter whose 95 % interval this is."""
+        """The standard deviation of the normal log-parameter whose central 95 % is this interval."""
         return float(np.log(self.high / self.low) / (2 * Z95))
 
 
 def log_draws(intervals: Sequence[Interval], count: int = 400, seed: int = 0, clip: float = 4.0) -> np.ndarray:
-    """(count, parameters) draws of the log-parameters, independent normals whose 95 % intervals are
+    """(count, parameters) draws of the log-parameters, independent normals whose central 95 % are the
     ``intervals``, clipped to ``clip`` log units (a factor e^4, about 55) of each value: an undetermined parameter's
     spread is otherwise huge."""
     mean = np.log([i.value for i in intervals])

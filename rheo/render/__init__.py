@@ -1,1 +1,1 @@
-"""Renderers: the virtual lab's splat renderer (a different model from the fit's, so no inverse crime)."""
+"""Renderers: the virtual lab's splat renderer, a different model from the fit's (the lab shares its simulator)."""

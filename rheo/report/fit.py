@@ -72,13 +72,13 @@ def training_figure(history: list[dict], names: list[str], truth: dict[str, floa
 
 def flow_curve_figure(tau_y: float, K: float, n: float, samples: np.ndarray | None, truth: tuple | None = None,
                       envelope: bool = False):
-    """tau(gamma_dot) = tau_y + K gamma_dot^n with the 95 % band of ``samples`` (rows of tau_y, K, n), or with
+    """tau(gamma_dot) = tau_y + K gamma_dot^n with the band of ``samples``' middle 95 % (rows of tau_y, K, n), or with
     ``envelope`` the range of their curves (materials that fit equally well)."""
     rate = np.logspace(-2, 3, 200)
     fig, ax = plt.subplots(figsize=(5.5, 3.8))
     if samples is not None and len(samples):
         curves = samples[:, :1] + samples[:, 1:2] * rate[None, :] ** samples[:, 2:3]
-        label = "materials within the tolerance" if envelope else "95 % band"
+        label = "materials within the tolerance" if envelope else "tolerance band"
         ax.fill_between(rate, *np.percentile(curves, [0, 100] if envelope else [2.5, 97.5], axis=0),
                         color="tab:blue", alpha=0.2, label=label)
     ax.plot(rate, tau_y + K * rate**n, color="tab:blue", label="recovered")
@@ -117,7 +117,7 @@ def gif_tag(frames: list[np.ndarray], caption: str, fps: float = 6.0) -> str:
 
 
 def interval_text(entry: dict) -> str:
-    """A fitted parameter's 95 % interval, "[low, high]", an open end (the region within the tolerance goes on past
+    """A fitted parameter's tolerance interval, "[low, high]", an open end (the region within the tolerance goes on past
     the fit's reach) marked < or >."""
     (low, high), (open_low, open_high) = entry["ci95"], entry.get("ci95_open", [False, False])
     return f"[{'<' if open_low else ''}{low:.3g}, {'>' if open_high else ''}{high:.3g}]"
@@ -125,13 +125,13 @@ def interval_text(entry: dict) -> str:
 
 def parameter_rows(params: dict) -> tuple[list[str], list[list[str]], list[str]]:
     """The parameter table: truth where known, initial guess, recovered, interval, % error, determined."""
-    header = ["parameter", "truth", "initial guess", "recovered", "95 % interval", "error", "determined"]
+    header = ["parameter", "truth", "initial guess", "recovered", "tolerance interval", "error", "determined"]
     rows, classes = [], []
     for name, p in params.items():
         error, held = p.get("error"), p.get("held_at_initial_guess", False)
         rows.append([SYMBOLS.get(name, name), f"{p['truth']:.4g}" if "truth" in p else "unknown",
                      f"{p['initial']:.4g}", f"{p['value']:.4g}" + (" (held at the guess)" if held else ""),
-                     interval_text(p), f"{error:+.1%}" if error is not None else "-",
+                     interval_text(p), "not recovered" if held else f"{error:+.1%}" if error is not None else "-",
                      "yes" if p["determined"] else "no"])
         # a parameter held at its guess was not recovered, however near the truth the guess was
         classes.append("" if error is None or held else ("good" if abs(error) <= 0.1 else "bad"))

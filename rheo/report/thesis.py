@@ -25,7 +25,9 @@ def recovery_rows(thesis_recovered: dict[str, float], params: dict) -> list[dict
                      "thesis_error": None if thesis is None or truth is None else abs(thesis / truth - 1.0),
                      "rheo": ours["value"], "interval": interval_text(ours), "determined": ours["determined"],
                      "held": ours.get("held_at_initial_guess", False),
-                     "rheo_error": None if truth is None else abs(ours["value"] / truth - 1.0)})
+                     # a parameter held at its guess was not recovered, however near the truth the guess was
+                     "rheo_error": None if truth is None or ours.get("held_at_initial_guess", False)
+                     else abs(ours["value"] / truth - 1.0)})
     return rows
 
 
@@ -34,7 +36,7 @@ def _percent(value: float | None) -> str:
 
 
 def recovery_table(rows: list[dict]) -> str:
-    header = ["parameter", "truth", "initial guess", "thesis", "thesis error", "rheo", "rheo 95 % interval",
+    header = ["parameter", "truth", "initial guess", "thesis", "thesis error", "rheo", "rheo tolerance interval",
               "rheo error"]
     cells, classes = [], []
     for r in rows:
@@ -43,7 +45,7 @@ def recovery_table(rows: list[dict]) -> str:
         cells.append([SYMBOLS.get(r["parameter"], r["parameter"]), f"{r['truth']:.4g}", f"{r['initial']:.4g}",
                       "-" if r["thesis"] is None else f"{r['thesis']:.4g}", _percent(r["thesis_error"]),
                       f"{r['rheo']:.4g}{status}", r["interval"],
-                      _percent(r["rheo_error"])])
+                      "not recovered" if r["held"] else _percent(r["rheo_error"])])
         better = r["rheo_error"] is not None and r["thesis_error"] is not None and r["rheo_error"] <= r["thesis_error"]
         classes.append("good" if better else "bad")
     return table_tag(header, cells, classes)
@@ -55,9 +57,11 @@ def error_figure(tables: list[tuple[str, list[dict]]]):
     for ax, (title, rows) in zip(axes[0], tables, strict=True):
         x = np.arange(len(rows))
         thesis = [100 * (r["thesis_error"] or 0.0) for r in rows]
-        ours = [100 * (r["rheo_error"] or 0.0) for r in rows]
+        ours = [np.nan if r["rheo_error"] is None else 100 * r["rheo_error"] for r in rows]
         ax.bar(x - 0.2, thesis, 0.4, label="thesis", color="0.6")
         ax.bar(x + 0.2, ours, 0.4, label="rheo", color="tab:blue")
+        for k in np.flatnonzero([r["held"] for r in rows]):
+            ax.text(x[k] + 0.2, 0.0, "not recovered", rotation=90, ha="center", va="bottom", fontsize=7)
         ax.set_xticks(x, [SYMBOLS.get(r["parameter"], r["parameter"]) for r in rows])
         ax.set_ylabel("error (%)")
         ax.set_title(title, fontsize=10)
