@@ -17,9 +17,11 @@ law, effects = concealed_truth(truth, {"tau_y": truth["tau_y_Pa"], "K": truth["K
 results = {name: target.compare(law["tau_y"], law["K"], law["n"], effects)
            for name, target in targets(setup_files(smk.input.setups, smk.input.masks), smk.params.simulation).items()}
 for name, result in results.items():
-    log.info("%s: the truth in the fit's simulation loses %.4g px, held out %.4g px", name, result.loss,
-             result.held_out_loss)
-write_json_atomic(smk.output[0], {"loss_px": float(np.mean([r.loss for r in results.values()])),
-                                  "held_out_loss_px": float(np.mean([r.held_out_loss for r in results.values()])),
-                                  "setups": {name: {"loss_px": r.loss, "held_out_loss_px": r.held_out_loss}
-                                             for name, r in results.items()}})
+    log.info("%s: the truth in the fit's simulation loses %.4g px, held out %.4g px between fitted frames and %.4g "
+             "px on the last ones", name, result.loss, result.held_out_loss, result.forecast_loss)
+write_json_atomic(smk.output[0], {
+    "loss_px": float(np.mean([r.loss for r in results.values()])),
+    "held_out_loss_px": float(np.mean([r.held_out_loss for r in results.values()])),
+    "forecast_loss_px": float(np.mean([r.forecast_loss for r in results.values()])),
+    "setups": {name: {"loss_px": r.loss, "held_out_loss_px": r.held_out_loss, "forecast_loss_px": r.forecast_loss}
+               for name, r in results.items()}})

@@ -128,7 +128,8 @@ else:
     log.warning("no particle moved faster than %g 1/s: no shear-rate band", MOVING_RATE)
 write_json_atomic(output, {
     **params, "setups": {name: {"loss_px": d.loss, "held_out_loss_px": None if np.isnan(d.held_out_loss)
-                                else d.held_out_loss, "first_frame_after_release_s": d.offset,
+                                else d.held_out_loss, "forecast_loss_px": None if np.isnan(d.forecast_loss)
+                                else d.forecast_loss, "first_frame_after_release_s": d.offset,
                                 "boundary_distance_px": d.distances.tolist(), "silhouette_iou": d.iou.tolist(),
                                 "outflow_iou": d.outflow_iou.tolist()} for name, d in details.items()},
     "within_tolerance": {"evaluations": spread.count, "ridge": spread.ridge, "laws": np.exp(spread.points).tolist(),

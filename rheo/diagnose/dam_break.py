@@ -48,9 +48,14 @@ def objectives(setups: dict[str, tuple[str, str]], simulation: dict, laws: dict[
 
 def summary(results: list[Comparison]) -> dict:
     """One evaluation over the setups, JSON-ready: mean losses and the fitted frames' distances."""
-    held = [r.held_out_loss for r in results if not np.isnan(r.held_out_loss)]
+
+    def mean(losses: list[float]) -> float | None:
+        kept = [v for v in losses if not np.isnan(v)]
+        return float(np.mean(kept)) if kept else None
+
     return {"loss": float(np.mean([r.loss for r in results])),
-            "held_out_loss": float(np.mean(held)) if held else None,
+            "held_out_loss": mean([r.held_out_loss for r in results]),
+            "forecast_loss": mean([r.forecast_loss for r in results]),
             "distances": [float(d) for r in results for d in r.fitted_distances]}
 
 
@@ -80,8 +85,12 @@ class Diagnosis:
     def record(self) -> dict:
         """diagnosis.json's content."""
 
+        def forecast(refit: Refit) -> float | None:
+            return None if np.isnan(refit.forecast_loss) else refit.forecast_loss
+
         def fit(refit: Refit) -> dict:
-            return {"loss_px": refit.loss, "held_out_loss_px": refit.held_out_loss, "criterion": refit.criterion,
+            return {"loss_px": refit.loss, "held_out_loss_px": refit.held_out_loss,
+                    "forecast_loss_px": forecast(refit), "criterion": refit.criterion,
                     "parameters": refit.parameters, "values": self.values(refit)}
 
         ranked = sorted(self.candidates, key=lambda r: r.criterion)
@@ -102,7 +111,8 @@ class Diagnosis:
             "magnitude": None if chosen is None else self.values(chosen)[chosen.name],
             "refit": None if chosen is None else fit(chosen),
             "loss_before_after_px": {"fitted": [self.base.loss, (chosen or self.base).loss],
-                                     "held_out": [self.base.held_out_loss, (chosen or self.base).held_out_loss]},
+                                     "held_out": [self.base.held_out_loss, (chosen or self.base).held_out_loss],
+                                     "forecast": [forecast(self.base), forecast(chosen or self.base)]},
         }
 
 

@@ -38,8 +38,9 @@ def information_criterion(distances: np.ndarray, parameters: int) -> float:
 
 @dataclass
 class Refit:
-    """The best point a (re)fit found, its loss (px) on the fitted frames and the held-out ones, the per-frame
-    distances of the fitted frames, and how many parameters it fitted."""
+    """The best point a (re)fit found, its loss (px) on the fitted frames, on those held out between them and on the
+    last ones held out as a prediction, the per-frame distances of the fitted frames, and how many parameters it
+    fitted."""
 
     name: str
     x: np.ndarray
@@ -48,12 +49,15 @@ class Refit:
     distances: np.ndarray
     parameters: int
     profile: tuple[tuple[float, float], ...] = ()  # (effect's magnitude, lowest loss there) along a profile
+    forecast_loss: float = math.nan
 
     @classmethod
     def of(cls, name: str, record: dict) -> Refit:
         """From an evaluation's stored record (its point, losses and distances)."""
+        forecast = record.get("forecast_loss")
         return cls(name, np.asarray(record["x"]), record["loss"], record["held_out_loss"],
-                   np.asarray(record["distances"]), len(record["x"]))
+                   np.asarray(record["distances"]), len(record["x"]),
+                   forecast_loss=math.nan if forecast is None else forecast)
 
     @property
     def criterion(self) -> float:

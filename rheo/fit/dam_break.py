@@ -66,7 +66,8 @@ class Comparison:
     outside the container."""
 
     loss: float
-    held_out_loss: float  # over the held-out frames (nan when every frame is fitted)
+    held_out_loss: float  # over the frames held out between fitted ones (nan when none)
+    forecast_loss: float  # over the last frames, held out as a prediction (nan when none)
     offset: float
     distances: np.ndarray
     iou: np.ndarray
@@ -83,10 +84,12 @@ class Comparison:
 class DamBreakTarget:
     """One setup's silhouettes and its simulated scene with ``effects`` (none by default); the first frame comes
     ``min_offset`` to ``max_offset`` seconds after the release; every frame makes the loss but every
-    ``held_out_every``-th (frames k, 2k, ...; none by default), held out."""
+    ``held_out_every``-th (frames k, 2k, ...; none by default) and the last ``held_out_last`` (a prediction), held
+    out."""
 
     def __init__(self, scene: DamBreakScene, max_offset: float, elastic: tuple[float, float],
-                 min_offset: float = 0.0, held_out_every: int | None = None, effects: Effects | None = None) -> None:
+                 min_offset: float = 0.0, held_out_every: int | None = None, effects: Effects | None = None,
+                 held_out_last: int = 0) -> None:
         self.scene = scene
         self.effects = effects or Effects()  # the physics every material is simulated with
         self.setup = scene.setup
@@ -96,6 +99,11 @@ class DamBreakTarget:
             if held_out_every < 2:
                 raise ValueError(f"held_out_every = {held_out_every} leaves no frame to fit: it must be >= 2")
             self.fitted[held_out_every - 1::held_out_every] = False
+        self.forecast = np.arange(len(self.masks)) >= len(self.masks) - held_out_last
+        self.fitted &= ~self.forecast
+        if held_out_last < 0 or self.fitted.sum() < 2:
+            raise ValueError(f"{self.setup.folder}: holding out the last {held_out_last} of {len(self.masks)} frames "
+                             f"(and every {held_out_every}-th) leaves fewer than 2 frames to fit")
         self.to_mask = [distance_to(m) for m in self.masks]
         # the recorded container is a pixel or two wider than the cuboid's outline (its walls, the binarisation):
         # what every frame shows within CONTAINER_RIM px of the outline counts as container
@@ -143,10 +151,10 @@ class DamBreakTarget:
         outflow = np.array([iou(s & outside, m & outside) for s, m in zip(chosen, self.masks, strict=True)])
         steps_compared = best + self.frame_steps * np.arange(frames)
         rates = shear_rates(trajectory.C.numpy()[steps_compared]).ravel()
-        held_out = distances[~self.fitted]
+        held_out, forecast = distances[~self.fitted & ~self.forecast], distances[self.forecast]
         return Comparison(float(distances[self.fitted].mean()), float(held_out.mean()) if len(held_out) else np.nan,
-                          best * OFFSET_STEP, distances, overlap, outflow, rates[rates > MOVING_RATE], np.stack(chosen),
-                          self.fitted)
+                          float(forecast.mean()) if len(forecast) else np.nan, best * OFFSET_STEP, distances,
+                          overlap, outflow, rates[rates > MOVING_RATE], np.stack(chosen), self.fitted)
 
 
 RESULT_KEYS = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}  # their keys in params.json
@@ -168,13 +176,15 @@ def setup_files(records: list[str], masks: list[str]) -> dict[str, tuple[str, st
 def target(setup: Setup, simulation: dict) -> DamBreakTarget:
     """A setup as a target, simulated with ``simulation``'s grid, particles, time step, elastic constants and wall
     slip (if given); its first frame ``min_offset`` (default 0) to ``max_offset`` s after the release, every
-    ``held_out_every``-th frame (if given) held out of the loss."""
+    ``held_out_every``-th frame (if given) and the last ``forecast_share`` of the frames (default none) held out of
+    the loss."""
     scene = dam_break_scene(setup, simulation["cells_per_height"], simulation["cells_across"],
                             simulation["particles_per_cell"], cfl=simulation["cfl"],
                             transfer_cfl=simulation.get("transfer_cfl"))
     return DamBreakTarget(scene, simulation["max_offset"], (simulation["mu"], simulation["lam"]),
                           simulation.get("min_offset", 0.0), simulation.get("held_out_every"),
-                          Effects(wall_slip=simulation.get("wall_slip")))
+                          Effects(wall_slip=simulation.get("wall_slip")),
+                          round(simulation.get("forecast_share", 0.0) * len(setup.masks)))
 
 
 def targets(setups: dict[str, tuple[str, str]], simulation: dict) -> dict[str, DamBreakTarget]:

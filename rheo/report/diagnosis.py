@@ -69,21 +69,30 @@ def _value(v) -> str:
 def section(record: dict, maps: bytes | None = None, extra: str = "") -> str:
     """HTML of the diagnosis ``record`` (diagnosis.json)."""
     chosen = record["chosen"]
-    before, after = record["loss_before_after_px"]["fitted"], record["loss_before_after_px"]["held_out"]
-    gain = ("" if chosen is None or after[0] in (None, 0) else
-            f" Held-out loss {_value(after[0])} px before, {_value(after[1])} px after: "
-            f"{100 * (1 - after[1] / after[0]):+.0f} % change.")
+    losses = record["loss_before_after_px"]
+    before = losses["fitted"]
+
+    def gain(pair: list[float | None], words: str) -> str:
+        if chosen is None or pair[0] in (None, 0):
+            return ""
+        return (f" {words} {_value(pair[0])} px before, {_value(pair[1])} px after: "
+                f"{100 * (pair[1] / pair[0] - 1):+.0f} % change.")
+
+    gains = (gain(losses["held_out"], "Loss on the frames held out between fitted ones")
+             + gain(losses.get("forecast", [None, None]), "Loss on the last frames, held out as a prediction"))
     verdict = (f"<p><b>Verdict: {record['verdict']}</b>"
                + ("" if chosen is None else f", fitted magnitude {_value(record['magnitude'])}") + ". "
-               f"Fitted frames' loss {_value(before[0])} px before, {_value(before[1])} px after.{gain}</p>")
+               f"Fitted frames' loss {_value(before[0])} px before, {_value(before[1])} px after.{gains}</p>")
     mismatch = "".join(f"<p>{name}: {m['words']}</p>" for name, m in record["mismatch"].items())
-    rows = [["base model", "0", _value(record["base"]["loss_px"]), _value(record["base"]["held_out_loss_px"]), "-",
+    def losses_of(fit: dict) -> list[str]:
+        return [_value(fit["loss_px"]), _value(fit["held_out_loss_px"]), _value(fit.get("forecast_loss_px"))]
+
+    rows = [["base model", "0", *losses_of(record["base"]), "-",
              ", ".join(f"{k} {_value(v)}" for k, v in record["base"]["values"].items())]]
-    rows += [[c["title"], f"{c['delta_criterion']:+.2f}", _value(c["loss_px"]), _value(c["held_out_loss_px"]),
-              "decoy" if c["decoy"] else "", ", ".join(f"{k} {_value(v)}" for k, v in c["values"].items())]
-             for c in record["candidates"]]
-    table = table_tag(["model", "change of the criterion", "fitted loss (px)", "held-out loss (px)", "", "values"],
-                      rows)
+    rows += [[c["title"], f"{c['delta_criterion']:+.2f}", *losses_of(c), "decoy" if c["decoy"] else "",
+              ", ".join(f"{k} {_value(v)}" for k, v in c["values"].items())] for c in record["candidates"]]
+    table = table_tag(["model", "change of the criterion", "fitted loss (px)", "held-out loss, between (px)",
+                       "held-out loss, last frames (px)", "", "values"], rows)
     criterion = (f"<p>Ranked by {record['criterion']}; an effect is named when it lowers the criterion by more "
                  f"than {record['evidence']:g}.</p>")
     figure = "" if maps is None else image_tag(maps, "png", "residual maps before and after the refit")

@@ -72,6 +72,25 @@ def test_a_wall_slip_in_the_settings_is_the_physics_every_law_and_candidate_is_s
     assert gated.loss == slipping.compare(5.0, 0.5, 0.8, Effects(wall_slip=300.0, gate_lift_time=0.05)).loss
 
 
+def test_frames_held_out_between_fitted_ones_and_at_the_end_are_scored_apart(channel):
+    """Of 8 frames, every 3rd (3 and 6) is held out between fitted ones and the last quarter (7 and 8) as a
+    prediction: each loss is the mean boundary distance over its own frames, the offset is chosen on the fitted
+    ones alone."""
+    setup = channel((0.0, 0.07, -0.01, 0.05), frames=8)
+    simulation = {"cells_per_height": 4, "cells_across": 4, "particles_per_cell": 2, "cfl": 0.8, "mu": 2e4,
+                  "lam": 2e4, "max_offset": 0.02, "held_out_every": 3, "forecast_share": 0.25}
+    result = target(setup, simulation).compare(5.0, 0.5, 0.8)
+    assert result.fitted.tolist() == [True, True, False, True, True, False, False, False]
+    d = result.distances
+    assert result.loss == pytest.approx(d[[0, 1, 3, 4]].mean())
+    assert result.held_out_loss == pytest.approx(d[[2, 5]].mean())
+    assert result.forecast_loss == pytest.approx(d[[6, 7]].mean())
+    everything = target(setup, {**simulation, "held_out_every": None, "forecast_share": 0.0}).compare(5.0, 0.5, 0.8)
+    assert everything.fitted.all() and np.isnan(everything.held_out_loss) and np.isnan(everything.forecast_loss)
+    with pytest.raises(ValueError, match="fewer than 2 frames"):
+        target(setup, {**simulation, "forecast_share": 0.875, "held_out_every": None})
+
+
 def test_the_stress_split_is_the_stress_at_the_rate_and_the_yield_stress_share_and_inverts():
     rng = np.random.default_rng(3)
     for x in np.log(rng.uniform([0.1, 0.1, 0.2], [300.0, 300.0, 2.0], (20, 3))):

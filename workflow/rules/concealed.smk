@@ -37,7 +37,8 @@ def concealed_simulation() -> dict:
     lab = config["concealed"]["lab"]
     grid = {key: lab[key] for key in ("cells_per_height", "cells_across", "cfl")}
     return {**config["virheometry"]["simulation"], **grid, "transfer_cfl": None, "min_offset": first,
-            "max_offset": first, "held_out_every": config["diagnose"]["held_out_every"]}
+            "max_offset": first, "held_out_every": config["diagnose"]["held_out_every"],
+            "forecast_share": config["diagnose"]["forecast_share"]}
 
 
 def concealed_fit_settings() -> dict:

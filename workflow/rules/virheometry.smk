@@ -53,7 +53,8 @@ def virheometry_bingham_settings() -> dict:
 
 def virheometry_held_out_simulation() -> dict:
     """The simulation of fits that hold out every few frames of the recordings."""
-    return {**config["virheometry"]["simulation"], "held_out_every": config["diagnose"]["held_out_every"]}
+    return {**config["virheometry"]["simulation"], "held_out_every": config["diagnose"]["held_out_every"],
+            "forecast_share": config["diagnose"]["forecast_share"]}
 
 
 rule virheometry_fit:
