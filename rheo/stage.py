@@ -5,8 +5,11 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import subprocess
 import sys
 from pathlib import Path
+
+import rheo
 
 
 def setup_logging(log_file: str | Path | None) -> logging.Logger:
@@ -18,6 +21,19 @@ def setup_logging(log_file: str | Path | None) -> logging.Logger:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s: %(message)s",
                         handlers=handlers, force=True)
     return logging.getLogger("rheo.stage")
+
+
+def code_version() -> str:
+    """The package's version and, in a git checkout, its commit (with "+changes" when the tree differs from it)."""
+    root = Path(rheo.__file__).resolve().parent.parent
+    try:
+        commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True,
+                                check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root,
+                               capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return rheo.__version__
+    return f"{rheo.__version__} ({commit}{'+changes' if dirty else ''})"
 
 
 def inputs_key(settings: object, paths: list[str | Path]) -> str:

@@ -1,15 +1,15 @@
 """concealed_summary: every concealed case's named effect against the concealed one (a confusion table), the gain
 on held-out frames, the core parameters' bias before and after the refit, whether the recording shows the effect at
 the fit's resolution at all (the base fit's loss against the truth's in the fit's simulation), and each diagnosis'
-runtime."""
+runtime; the scores also as JSON (summary.json) with the code version."""
 
 import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES
-from rheo.io import read_json, write_text_atomic
+from rheo.io import read_json, write_json_atomic, write_text_atomic
 from rheo.report.diagnosis import confusion_section
 from rheo.report.html import page, table_tag
-from rheo.stage import setup_logging
+from rheo.stage import code_version, setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
@@ -32,7 +32,7 @@ def before_after(losses: list[float | None]) -> str:
     return "-" if not losses[0] else f"{losses[0]:.3g} / {losses[1]:.3g} ({change(losses):+.0f} %)"
 
 
-rows, truths, named = [], [], []
+rows, truths, named, records = [], [], [], []
 hits = effects = null_ok = nulls = held_ok = last_ok = reduced = shown = shown_hits = 0
 for case, d_path, t_path, f_path, o_path in zip(smk.params.cases, smk.input.diagnoses, smk.input.truths,
                                                 smk.input.fits, smk.input.oracles, strict=True):
@@ -57,6 +57,13 @@ for case, d_path, t_path, f_path, o_path in zip(smk.params.cases, smk.input.diag
         last_ok += change(last) <= -30
         reduced += bias(after, truth) < bias(base, truth)
     best = diagnosis["candidates"][0] if diagnosis["candidates"] else None
+    records.append({"case": case, "concealed": true, "magnitude": truth["magnitude"], "named": chosen,
+                    "named_magnitude": diagnosis["magnitude"],
+                    **{key: None if np.isnan(change(pair)) else change(pair)
+                       for key, pair in (("held_out_change_pct", held), ("forecast_change_pct", last))},
+                    "core_bias_pct": [bias(base, truth), bias(after, truth)],
+                    "shown": None if true == "none" else bool(fit["loss_px"] > oracle["loss_px"]),
+                    "runtime_min": diagnosis["runtime_s"] / 60})
     rows.append([case, true, "-" if truth["magnitude"] is None else f"{truth['magnitude']:g}", chosen,
                  "-" if diagnosis["magnitude"] is None else f"{diagnosis['magnitude']:.3g}",
                  "-" if best is None else f"{best['effect']} {best['delta_criterion']:+.1f}",
@@ -81,4 +88,9 @@ table = table_tag(["case", "concealed effect", "magnitude", "named", "fitted mag
                    "base fit / truth in the fit's simulation (px)", "diagnosis (min)"], rows)
 body = (f"<h2>Confusion table</h2>{score}{confusion_section(truths, named, labels)}"
         f"<h2>Cases</h2>{table}<p>Each case's page: results/concealed/&lt;case&gt;/diagnosis/report.html.</p>")
-write_text_atomic(smk.output[0], page("Concealed effects: what the diagnosis names", body))
+write_text_atomic(smk.output.html, page("Concealed effects: what the diagnosis names", body))
+write_json_atomic(smk.output.scores, {
+    "code_version": code_version(), "cases": len(records), "with_effect": effects, "null": nulls,
+    "top1": hits, "false_alarms": nulls - null_ok, "held_out_down_30pct": held_ok, "forecast_down_30pct": last_ok,
+    "core_bias_reduced": reduced, "shown": shown, "shown_named": shown_hits,
+    "runtime_min": sum(r["runtime_min"] for r in records), "by_case": records})

@@ -114,7 +114,8 @@ rule concealed_summary:
         fits=expand("results/concealed/{case}/fit/params.json", case=concealed_cases()),
         oracles=expand("results/concealed/{case}/oracle.json", case=concealed_cases()),
     output:
-        "results/concealed/summary.html",
+        html="results/concealed/summary.html",
+        scores="results/concealed/summary.json",
     log:
         "logs/concealed/summary.log",
     params:
