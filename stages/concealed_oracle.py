@@ -1,7 +1,7 @@
-"""concealed_oracle: the concealed truth (its law and effect) in the fit's own simulation, compared with the
-recordings (the mean over the setups, as the fit's loss): about the least loss any fit with the right effect can
-reach. Where the base fit already reaches below it, the recordings do not show the effect at the fit's resolution,
-and no diagnosis can name it."""
+"""concealed_oracle: the concealed truth (its law, elastic constants and effects; not a camera roll, which the
+simulation cannot hold) in the fit's own simulation, compared with the recordings (the mean over the setups, as the
+fit's loss): about the least loss any fit with the right effects can reach. Where the base fit already reaches below
+it, the recordings do not show the effect at the fit's resolution, and no diagnosis can name it."""
 
 import numpy as np
 
@@ -13,9 +13,11 @@ from rheo.stage import setup_logging
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
 truth = read_json(smk.input.truth)
-law, effects = concealed_truth(truth, {"tau_y": truth["tau_y_Pa"], "K": truth["K_Pa_s_n"]})  # as the lab filmed it
-results = {name: target.compare(law["tau_y"], law["K"], law["n"], effects)
-           for name, target in targets(setup_files(smk.input.setups, smk.input.masks), smk.params.simulation).items()}
+filmed = concealed_truth({"effects": truth["effects"]}, {"tau_y": truth["tau_y_Pa"], "K": truth["K_Pa_s_n"]})
+simulation = {**smk.params.simulation, "mu": truth["mu_Pa"], "lam": truth["lam_Pa"]}
+law = filmed.law
+results = {name: target.compare(law["tau_y"], law["K"], law["n"], filmed.effects)
+           for name, target in targets(setup_files(smk.input.setups, smk.input.masks), simulation).items()}
 for name, result in results.items():
     log.info("%s: the truth in the fit's simulation loses %.4g px, held out %.4g px between fitted frames and %.4g "
              "px on the last ones", name, result.loss, result.held_out_loss, result.forecast_loss)

@@ -1,5 +1,6 @@
 """concealed_synthesize: the virtual lab films one concealed-effect dam break in each of the scene's channels (its
-own particles and renderer) and writes each as an imported setup, with the truth kept apart for scoring."""
+own particles, account of the effects and renderer) and writes each as an imported setup, with the truth kept apart
+for scoring."""
 
 import numpy as np
 
@@ -9,15 +10,22 @@ from rheo.stage import setup_logging
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
-case = smk.params.case
-law, effects = concealed_truth(case, {**smk.params.truth, **case.get("truth", {})})
-mu, lam = smk.params.elastic
-log.info("%s: %s at %s; law tau_y %.4g Pa, K %.4g Pa s, n %.3g", case["name"], case["effect"],
-         case.get("magnitude"), law["tau_y"], law["K"], law["n"])
-for index, (setup_path, masks_path) in enumerate(zip(smk.output.setups, smk.output.masks, strict=True), start=1):
-    setup = film(smk.params.scene, index, smk.params.lab, case["name"], law, effects, mu, lam)
+case, scene = smk.params.case, smk.params.scene
+truth = concealed_truth(case, smk.params.truth)
+mu, lam = (case["elastic"]["mu"], case["elastic"]["lam"]) if "elastic" in case else smk.params.elastic
+release = case.get("release_s", 1.0 / scene["fps"])
+effects = ", ".join(f"{e['effect']} {e['magnitude']:g}" for e in case["effects"]) or "no effect"
+log.info("%s: %s; law tau_y %.4g Pa, K %.4g Pa s, n %.3g; mu %.4g, lam %.4g Pa; first frame %.4g s after the release",
+         case["name"], effects, truth.law["tau_y"], truth.law["K"], truth.law["n"], mu, lam, release)
+channels = case.get("channels", scene["setups"])
+for index, (setup_path, masks_path, geometry) in enumerate(zip(smk.output.setups, smk.output.masks, channels,
+                                                               strict=True), start=1):
+    setup = film(scene, geometry, index, smk.params.lab, case["name"], truth, mu, lam, release)
     log.info("setup %d (%g m high, %g m long) filmed", index, setup.height, setup.width)
     write_json_atomic(setup_path, {**setup.record(), "units": "SI (m, kg/m^3, Pa, s)", "frames": len(setup.masks)})
     write_atomic(masks_path, lambda p, setup=setup: np.savez_compressed(p, masks=np.stack(setup.masks)))
-write_json_atomic(smk.output.truth, {"effect": case["effect"], "magnitude": case.get("magnitude"),
-                                     "tau_y_Pa": law["tau_y"], "K_Pa_s_n": law["K"], "n": law["n"]})
+names = [e["effect"] for e in case["effects"]]
+write_json_atomic(smk.output.truth, {
+    "effect": names[0] if names else "none", "magnitude": case["effects"][0]["magnitude"] if names else None,
+    "effects": case["effects"], "tau_y_Pa": truth.law["tau_y"], "K_Pa_s_n": truth.law["K"], "n": truth.law["n"],
+    "mu_Pa": mu, "lam_Pa": lam, "release_s": release})

@@ -1,22 +1,25 @@
-"""Concealed-effect dam breaks: a virtual lab films a dam break with one effect switched on that the fit's base model
-lacks (or none), and neither the fit nor the diagnosis is told which.
+"""Concealed-effect dam breaks: a virtual lab films a dam break with effects switched on that the fit's base model
+lacks (none, one, two, or one that no candidate models), and neither the fit nor the diagnosis is told which.
 
-The lab simulates with the fit's simulator, on its grid and time step, with its own particles (more per cell), and
-draws the material with the virtual lab's renderer (splats of another radius, supersampled): only the particles and
-the renderer differ from the fit's model, so the cases are close to an inverse crime. The recording takes the form
-of imported ViRheometry setups (setup.json and masks.npz: silhouettes that include the container), one per channel
-geometry of the scene, as the real recordings come in pairs (a low and a tall column): one geometry alone lets a
-Bingham law mimic shear thinning. The first frame comes one frame interval after the release, which the fit is
-told.
+The lab simulates with the fit's simulator, with its own particles (more per cell) and its own account of each effect
+(``LAB_EFFECTS``, apart from the diagnosis' candidates), and draws the material with the virtual lab's renderer
+(splats of another radius, supersampled); on the fit's grid and time step only these differ from the fit's model, so
+such cases are close to an inverse crime. The recording takes the form of imported ViRheometry setups (setup.json and
+masks.npz: silhouettes that include the container), one per channel of the scene, as the real recordings come in
+pairs (a low and a tall column): one geometry alone lets a Bingham law mimic shear thinning. The first frame comes
+``release_s`` after the release (one frame interval unless the case says), which the fit searches for.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from rheo.diagnose.candidates import CANDIDATES
 from rheo.experiments.dam_break import Effects, dam_break_scene
 from rheo.experiments.virheometry import Setup, StaticBox, container_silhouette
 from rheo.experiments.virtual_lab import lab_view
@@ -25,13 +28,13 @@ from rheo.vision.cameras import Camera, intrinsics, look_at
 
 WALL = 0.003  # m: the channel's walls' thickness
 WALL_HEIGHT = 0.2  # m
+RELEASE_STEP = 1.0 / 240.0  # s: the lab's sampling, on which the release and the frames fall
 
 
-def channel(scene: dict, index: int, name: str, masks: list[np.ndarray] | None = None) -> Setup:
-    """The scene's channel ``index`` (1-based: its ``setups[index - 1]``'s material ``height`` and ``width``; the
-    scene's ``depth`` in m, ``walls`` and ``floor`` contact laws, ``camera``, ``fps``, ``density``) as a setup named
-    ``{name}_{index}``, with ``masks`` if given."""
-    geometry = scene["setups"][index - 1]
+def channel(scene: dict, geometry: dict, index: int, name: str, masks: list[np.ndarray] | None = None) -> Setup:
+    """A channel of material ``geometry`` (``height`` and ``width``, m; the scene's ``depth`` in m, ``walls`` and
+    ``floor`` contact laws, ``camera``, ``fps``, ``density``) as a setup named ``{name}_{index}``, with ``masks`` if
+    given."""
     height, width, depth = geometry["height"], geometry["width"], scene["depth"]
     walls = [StaticBox((-1.0, -0.01, -1.0), (1.0, 0.0, 1.0), scene["floor"]),
              StaticBox((-WALL, 0.0, 0.0), (0.0, WALL_HEIGHT, depth), scene["walls"]),
@@ -45,33 +48,83 @@ def channel(scene: dict, index: int, name: str, masks: list[np.ndarray] | None =
                  fps=scene["fps"])
 
 
-def concealed_truth(case: dict, base: dict[str, float]) -> tuple[dict[str, float], Effects]:
-    """The law (tau_y, K, n) and effects the lab films: the ``base`` law with the case's ``effect`` at its
-    ``magnitude`` (effect ``none``: the base law alone)."""
-    law = {"n": 1.0, **base}
-    if case["effect"] == "none":
-        return law, Effects()
-    if case["effect"] not in CANDIDATES:
-        raise ValueError(f"unknown effect {case['effect']!r}; known: none, {', '.join(CANDIDATES)}")
-    return CANDIDATES[case["effect"]].apply(case["magnitude"], law, Effects())
+def rolled(camera: Camera, degrees: float) -> Camera:
+    """The camera turned about its optical axis by ``degrees``."""
+    angle = math.radians(degrees)
+    roll = np.eye(4)
+    roll[:2, :2] = [[math.cos(angle), -math.sin(angle)], [math.sin(angle), math.cos(angle)]]
+    return dataclasses.replace(camera, c2w=camera.c2w @ roll)
 
 
-def film(scene: dict, index: int, lab: dict, name: str, law: dict[str, float], effects: Effects,
-         mu: float, lam: float) -> Setup:
-    """The lab's recording of the scene's channel ``index``: ``scene["frames"]`` silhouettes, the first one frame
-    interval after the release, simulated at the ``lab``'s resolution (``cells_per_height``, ``cells_across``,
-    ``particles_per_cell``, ``cfl``; ``reach``: how far past the gate (m) the simulated floor extends)."""
-    setup = channel(scene, index, name)
+# The lab's own account of each effect it can film: how it changes the law (tau_y, K, n) and the simulated physics
+# (written apart from the diagnosis' candidates, which the lab never reads).
+def _with_physics(**change):
+    return lambda law, effects: (law, dataclasses.replace(effects, physics=dataclasses.replace(effects.physics,
+                                                                                               **change)))
+
+
+LAB_EFFECTS: dict[str, Callable[[float], Callable]] = {
+    "floor_friction": lambda m: lambda law, fx: (law, dataclasses.replace(fx, floor_friction=m)),
+    "wall_slip": lambda m: lambda law, fx: (law, dataclasses.replace(fx, wall_slip=m)),
+    "wall_adhesion": lambda m: _with_physics(wall_adhesion=m),
+    "gate_lift": lambda m: lambda law, fx: (law, dataclasses.replace(fx, gate_lift_time=m)),
+    "shear_thinning": lambda m: lambda law, fx: ({**law, "n": m}, fx),
+    "thixotropy": lambda m: _with_physics(thixotropy=m),
+    "surface_tension": lambda m: _with_physics(surface_tension=m),
+    "air_drag": lambda m: _with_physics(air_drag=m),
+}
+# what the lab can film that no candidate models: the camera rolled about its axis (deg) while the recording states
+# it level
+OUTSIDE_EFFECTS = ("camera_roll",)
+
+
+@dataclass(frozen=True)
+class Truth:
+    """What the lab films: the law (tau_y, K, n), the simulated effects and the camera's roll (deg)."""
+
+    law: dict[str, float]
+    effects: Effects
+    camera_roll: float = 0.0
+
+
+def concealed_truth(case: dict, base: dict[str, float]) -> Truth:
+    """The law and effects the lab films: the case's own ``law`` (else ``base``), Bingham, with each of its
+    ``effects`` ({effect, magnitude}) switched on."""
+    truth = Truth({"n": 1.0, **base, **case.get("law", {})}, Effects())
+    for item in case.get("effects", []):
+        name, magnitude = item["effect"], item["magnitude"]
+        if name == "camera_roll":
+            truth = dataclasses.replace(truth, camera_roll=truth.camera_roll + magnitude)
+        elif name in LAB_EFFECTS:
+            law, effects = LAB_EFFECTS[name](magnitude)(truth.law, truth.effects)
+            truth = dataclasses.replace(truth, law=law, effects=effects)
+        else:
+            raise ValueError(f"unknown effect {name!r}; known: {', '.join([*LAB_EFFECTS, *OUTSIDE_EFFECTS])}")
+    return truth
+
+
+def film(scene: dict, geometry: dict, index: int, lab: dict, name: str, truth: Truth, mu: float, lam: float,
+         release: float) -> Setup:
+    """The lab's recording of a channel of material ``geometry``: ``scene["frames"]`` silhouettes, the first
+    ``release`` s after the release (a whole number of 1/240 s), simulated at the ``lab``'s resolution
+    (``cells_per_height``, ``cells_across``, ``particles_per_cell``, ``cfl``; ``reach``: how far past the gate (m)
+    the simulated floor extends), filmed with the truth's camera roll."""
+    setup = channel(scene, geometry, index, name)
     if not setup.camera.pixels(setup.cuboid_corners())[1].all():
-        raise ValueError(f"concealed scene, setup {index}: the material ({setup.height:g} x {setup.width:g} m) "
+        raise ValueError(f"concealed channel {index}: the material ({setup.height:g} x {setup.width:g} m) "
                          "leaves the camera's view")
     lab_scene = dam_break_scene(setup, lab["cells_per_height"], lab["cells_across"], lab["particles_per_cell"],
                                 reach=lab["reach"], cfl=lab["cfl"])
-    material = HerschelBulkley(**law, mu=mu, lam=lam, density=setup.density)
-    dt = 1.0 / setup.fps
-    positions = lab_scene.positions(lab_scene.rollout(material, scene["frames"] * dt, dt, effects))
-    container = container_silhouette(setup)
-    masks = [lab_view(setup.camera, positions[k], lab_scene.spacing)[1] | container
-             for k in range(1, scene["frames"] + 1)]
+    material = HerschelBulkley(**truth.law, mu=mu, lam=lam, density=setup.density)
+    first, per_frame = round(release / RELEASE_STEP), round(1.0 / (setup.fps * RELEASE_STEP))
+    if not (math.isclose(first * RELEASE_STEP, release) and math.isclose(per_frame * RELEASE_STEP, 1.0 / setup.fps)):
+        raise ValueError(f"release {release!r} s and the frame interval 1/{setup.fps:g} s must be whole numbers of "
+                         f"{RELEASE_STEP:.4g} s")
+    steps = first + (scene["frames"] - 1) * per_frame
+    positions = lab_scene.positions(lab_scene.rollout(material, steps * RELEASE_STEP, RELEASE_STEP, truth.effects))
+    camera = rolled(setup.camera, truth.camera_roll)
+    container = container_silhouette(dataclasses.replace(setup, camera=camera))
+    masks = [lab_view(camera, positions[first + k * per_frame], lab_scene.spacing)[1] | container
+             for k in range(scene["frames"])]
     setup.masks[:] = masks
     return setup

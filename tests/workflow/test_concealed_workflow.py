@@ -9,9 +9,11 @@ import pytest
 def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow):
     cases = workflow.root / "cases"
     cases.mkdir()
-    (cases / "plain.yaml").write_text("name: plain\neffect: none\n")
-    (cases / "sliding.yaml").write_text("name: sliding\neffect: floor_friction\nmagnitude: 0.3\n")
+    (cases / "plain.yaml").write_text("name: plain\neffects: []\n")
+    (cases / "sliding.yaml").write_text("name: sliding\neffects: [{effect: floor_friction, magnitude: 0.3}]\n"
+                                        "release_s: 0.025\n")
     (workflow.root / "quick.yaml").write_text(
+        "virheometry: {simulation: {max_offset: 0.05}}\n"
         "concealed:\n  cases: cases\n  scene: {frames: 4}\n"
         "  lab: {cells_per_height: 4, cells_across: 4}\n"
         "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1}\n"
@@ -21,8 +23,10 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     assert run.returncode == 0, run.stderr[-3000:]
     result = workflow.root / "results/concealed"
     truth = json.loads((result / "sliding/truth.json").read_text())
-    assert truth["effect"] == "floor_friction" and truth["n"] == 1.0
+    assert truth["effect"] == "floor_friction" and truth["n"] == 1.0 and truth["release_s"] == 0.025
     fit = json.loads((result / "sliding/fit/params.json").read_text())
+    # the fit searched the release: the first frame's time after it, found within a frame interval
+    assert all(abs(s["first_frame_after_release_s"] - 0.025) < 1 / 24 for s in fit["setups"].values())
     assert fit["n"]["fixed"] and fit["n"]["value"] == 1.0
     assert len(fit["setups"]) == 2  # the scene's two channels, fitted jointly
     for setup in fit["setups"].values():

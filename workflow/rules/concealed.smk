@@ -18,8 +18,9 @@ def concealed_case(name: str) -> dict:
     validate(case, str(Path(workflow.basedir) / "workflow/schemas/concealed_case.schema.yaml"))
     if case["name"] != name:
         raise ValueError(f"{path}: name {case['name']!r} differs from the file name {name!r}")
-    if case["effect"] != "none" and "magnitude" not in case:
-        raise ValueError(f"{path}: effect {case['effect']!r} needs a magnitude")
+    channels = len(config["concealed"]["scene"]["setups"])
+    if len(case.get("channels", [None] * channels)) != channels:
+        raise ValueError(f"{path}: {len(case['channels'])} channels given, the scene films {channels}")
     return case
 
 
@@ -30,14 +31,13 @@ def concealed_recordings(kind: str) -> list[str]:
 
 
 def concealed_simulation() -> dict:
-    """The fit's simulation: the real dam breaks' particles and elastic constants on the lab's grid and time step
-    (with the lab's transfer at every step), the first frame one frame interval after the release (the lab knows
-    it), every few frames held out."""
-    first = 1.0 / config["concealed"]["scene"]["fps"]
+    """The fit's simulation: the real dam breaks' particles, elastic constants and search of the first frame's time
+    after the release, on the lab's grid and time step (with the lab's transfer at every step), every few frames
+    held out."""
     lab = config["concealed"]["lab"]
     grid = {key: lab[key] for key in ("cells_per_height", "cells_across", "cfl")}
-    return {**config["virheometry"]["simulation"], **grid, "transfer_cfl": None, "min_offset": first,
-            "max_offset": first, "held_out_every": config["diagnose"]["held_out_every"],
+    return {**config["virheometry"]["simulation"], **grid, "transfer_cfl": None,
+            "held_out_every": config["diagnose"]["held_out_every"],
             "forecast_share": config["diagnose"]["forecast_share"]}
 
 
