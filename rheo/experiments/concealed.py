@@ -1,10 +1,10 @@
 """Concealed-effect dam breaks: a virtual lab films a dam break with effects switched on that the fit's base model
 lacks (none, one, two, or one that no candidate models), and neither the fit nor the diagnosis is told which.
 
-The lab simulates with the fit's simulator, with its own particles (more per cell) and its own account of each effect
-(``LAB_EFFECTS``, apart from the diagnosis' candidates), and draws the material with the virtual lab's renderer
-(splats of another radius, supersampled); on the fit's grid and time step only these differ from the fit's model, so
-such cases are close to an inverse crime. The recording takes the form of imported ViRheometry setups (setup.json and
+The lab simulates with the fit's simulator on a finer grid, with its own time step and particles (more per cell) and
+its own account of each effect (``LAB_EFFECTS``, apart from the diagnosis' candidates), and draws the material with
+the virtual lab's renderer (splats of another radius, supersampled); it still shares the fit's simulator, so it is
+not independent of the fit. The recording takes the form of imported ViRheometry setups (setup.json and
 masks.npz: silhouettes that include the container), one per channel of the scene, as the real recordings come in
 pairs (a low and a tall column): one geometry alone lets a Bingham law mimic shear thinning. The first frame comes
 ``release_s`` after the release (one frame interval unless the case says), which the fit searches for.
@@ -107,14 +107,14 @@ def film(scene: dict, geometry: dict, index: int, lab: dict, name: str, truth: T
          release: float) -> Setup:
     """The lab's recording of a channel of material ``geometry``: ``scene["frames"]`` silhouettes, the first
     ``release`` s after the release (a whole number of 1/240 s), simulated at the ``lab``'s resolution
-    (``cells_per_height``, ``cells_across``, ``particles_per_cell``, ``cfl``; ``reach``: how far past the gate (m)
-    the simulated floor extends), filmed with the truth's camera roll."""
+    (``cells_per_height``, ``cells_across``, ``particles_per_cell``, ``cfl``, ``transfer_cfl``; ``reach``: how far
+    past the gate (m) the simulated floor extends), filmed with the truth's camera roll."""
     setup = channel(scene, geometry, index, name)
     if not setup.camera.pixels(setup.cuboid_corners())[1].all():
         raise ValueError(f"concealed channel {index}: the material ({setup.height:g} x {setup.width:g} m) "
                          "leaves the camera's view")
     lab_scene = dam_break_scene(setup, lab["cells_per_height"], lab["cells_across"], lab["particles_per_cell"],
-                                reach=lab["reach"], cfl=lab["cfl"])
+                                reach=lab["reach"], cfl=lab["cfl"], transfer_cfl=lab["transfer_cfl"])
     material = HerschelBulkley(**truth.law, mu=mu, lam=lam, density=setup.density)
     first, per_frame = round(release / RELEASE_STEP), round(1.0 / (setup.fps * RELEASE_STEP))
     if not (math.isclose(first * RELEASE_STEP, release) and math.isclose(per_frame * RELEASE_STEP, 1.0 / setup.fps)):

@@ -65,11 +65,12 @@ def draw_case(rng: np.random.Generator, name: str, kind: str, fps: float) -> dic
     # a low and a tall column, as the real recordings come, in view of the scene's camera
     channels = [{"height": uniform(rng, 0.03, 0.045), "width": uniform(rng, 0.035, 0.055)},
                 {"height": uniform(rng, 0.05, 0.065), "width": uniform(rng, 0.035, 0.05)}]
-    mu = log_uniform(rng, 5.0e3, 2.0e4)
+    # around the fit's own elastic constants (virheometry.simulation: 300 Pa and 1e4 Pa)
+    elastic = {"mu": round(log_uniform(rng, 100.0, 1000.0), 1), "lam": round(log_uniform(rng, 5.0e3, 2.0e4), 1)}
     frame_steps = round(1.0 / (fps * RELEASE_STEP))
     return {"name": name, "effects": effects,
             "law": {"tau_y": round(log_uniform(rng, 5.0, 40.0), 3), "K": round(log_uniform(rng, 0.5, 5.0), 3)},
-            "channels": channels, "elastic": {"mu": round(mu, 1), "lam": round(mu * float(rng.uniform(1.0, 4.0)), 1)},
+            "channels": channels, "elastic": elastic,
             "release_s": int(rng.integers(1, frame_steps + 1)) * RELEASE_STEP}
 
 

@@ -1,5 +1,5 @@
-"""The concealed-effect rules in a scratch copy of the workflow, on a coarse lab (whose grid the fits take) and a small
-search: two cases filmed in the scene's two channels, fitted jointly with the Bingham model, diagnosed and summed up."""
+"""The concealed-effect rules in a scratch copy of the workflow, on a coarse lab, a coarser fit and a small search: two
+cases filmed in the scene's two channels, fitted jointly with the Bingham model, diagnosed and summed up."""
 
 import json
 
@@ -13,9 +13,9 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     (cases / "sliding.yaml").write_text("name: sliding\neffects: [{effect: floor_friction, magnitude: 0.3}]\n"
                                         "release_s: 0.025\n")
     (workflow.root / "quick.yaml").write_text(
-        "virheometry: {simulation: {max_offset: 0.05}}\n"
+        "virheometry: {simulation: {max_offset: 0.05, cells_per_height: 4, cells_across: 4}}\n"
         "concealed:\n  cases: cases\n  scene: {frames: 4}\n"
-        "  lab: {cells_per_height: 4, cells_across: 4}\n"
+        "  lab: {cells_per_height: 5, cells_across: 5}\n"
         "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1}\n"
         "diagnose: {candidates: [floor_friction, gravity_tilt], rung_evaluations: 2, refit_evaluations: 2,\n"
         "           held_out_every: 3, forecast_share: 0.25}\n")

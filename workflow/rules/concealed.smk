@@ -31,13 +31,9 @@ def concealed_recordings(kind: str) -> list[str]:
 
 
 def concealed_simulation() -> dict:
-    """The fit's simulation: the real dam breaks' particles, elastic constants and search of the first frame's time
-    after the release, on the lab's grid and time step (with the lab's transfer at every step), every few frames
-    held out."""
-    lab = config["concealed"]["lab"]
-    grid = {key: lab[key] for key in ("cells_per_height", "cells_across", "cfl")}
-    return {**config["virheometry"]["simulation"], **grid, "transfer_cfl": None,
-            "held_out_every": config["diagnose"]["held_out_every"],
+    """The fit's simulation: the real dam breaks' (grid, step, particles, elastic constants, search of the first
+    frame's time after the release), every few frames and the last ones held out."""
+    return {**config["virheometry"]["simulation"], "held_out_every": config["diagnose"]["held_out_every"],
             "forecast_share": config["diagnose"]["forecast_share"]}
 
 
