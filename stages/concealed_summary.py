@@ -38,8 +38,9 @@ for case, d_path, t_path, f_path, o_path in zip(smk.params.cases, smk.input.diag
                                                 smk.input.fits, smk.input.oracles, strict=True):
     diagnosis, truth, fit, oracle = read_json(d_path), read_json(t_path), read_json(f_path), read_json(o_path)
     names, chosen = [e["effect"] for e in truth["effects"]], diagnosis["chosen"] or "none"
-    modelled = [n for n in names if n in CANDIDATES]
-    # the confusion table's row: the first (dominant) effect a candidate models; "outside" where none does
+    modelled = [n for n in names if n in smk.params.candidates]
+    # the confusion table's row: the first (dominant) effect a candidate of the diagnosis models; "outside" where
+    # none does
     true = modelled[0] if modelled else "outside" if names else "none"
     truths.append(true)
     named.append(chosen)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from rheo.experiments.concealed import RELEASE_STEP
+from rheo.experiments.concealed import OUTSIDE_EFFECTS, RELEASE_STEP
 
 # Magnitudes (low, high), drawn log-uniformly, each well inside what the recording can show and the candidate's box.
 MAGNITUDES: dict[str, tuple[float, float]] = {
@@ -32,7 +32,6 @@ MAGNITUDES: dict[str, tuple[float, float]] = {
     "air_drag": (2.0, 60.0),  # 1/m
     "camera_roll": (1.5, 5.0),  # deg, either way: no candidate models it
 }
-OUTSIDE = ("camera_roll",)
 KINDS = {"none": 0.15, "one": 0.55, "two": 0.15, "outside": 0.15}  # shares of the suite
 
 
@@ -54,11 +53,11 @@ def draw_effect(rng: np.random.Generator, name: str) -> dict:
 
 def draw_case(rng: np.random.Generator, name: str, kind: str, fps: float) -> dict:
     """One case of ``kind`` (none, one, two or outside) for a scene filmed at ``fps``."""
-    modelled = [e for e in MAGNITUDES if e not in OUTSIDE]
+    modelled = [e for e in MAGNITUDES if e not in OUTSIDE_EFFECTS]
     if kind == "none":
         effects = []
     elif kind == "outside":
-        effects = [draw_effect(rng, str(rng.choice(OUTSIDE)))]
+        effects = [draw_effect(rng, str(rng.choice(OUTSIDE_EFFECTS)))]
     else:
         chosen = rng.choice(modelled, size=1 if kind == "one" else 2, replace=False)
         effects = [draw_effect(rng, str(e)) for e in chosen]

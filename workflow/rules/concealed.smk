@@ -116,5 +116,6 @@ rule concealed_summary:
         "logs/concealed/summary.log",
     params:
         cases=concealed_cases(),
+        candidates=config["diagnose"]["candidates"],
     script:
         "../../stages/concealed_summary.py"
