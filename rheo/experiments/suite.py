@@ -48,7 +48,7 @@ def draw_effect(rng: np.random.Generator, name: str) -> dict:
     magnitude = log_uniform(rng, *MAGNITUDES[name])
     if name == "camera_roll":
         magnitude *= rng.choice([-1.0, 1.0])
-    return {"effect": name, "magnitude": round(magnitude, 4)}
+    return {"effect": name, "magnitude": round(float(magnitude), 4)}
 
 
 def draw_case(rng: np.random.Generator, name: str, kind: str, fps: float) -> dict:
