@@ -61,8 +61,8 @@ def summary(results: list[Comparison]) -> dict:
 
 @dataclass
 class Diagnosis:
-    """The base fit, every candidate's short refit, the chosen effect's longer refit (None: nothing missing), the
-    comparisons before and after by setup, and where the base fit's mismatch lies."""
+    """The base fit, every candidate's short refit, the chosen effect's longer refit (None: no candidate explains the
+    mismatch), the comparisons before and after by setup, and where the base fit's mismatch lies."""
 
     law: Law
     base: Refit
@@ -81,6 +81,12 @@ class Diagnosis:
         if candidate is not None:
             out[candidate.name] = candidate.value(float(refit.x[-1]))
         return out
+
+    def unexplained(self) -> str:
+        """The verdict where no candidate is named: the mismatch that remains, where and when, in the setup that
+        shows the most of it."""
+        worst = max(self.location, key=lambda name: self.location[name].total.sum())
+        return f"no candidate explains the mismatch that remains ({worst}: {self.location[worst].words()})"
 
     def record(self) -> dict:
         """diagnosis.json's content."""
@@ -107,7 +113,7 @@ class Diagnosis:
                             "delta_criterion": r.criterion - self.base.criterion, **fit(r),
                             "profile": [list(p) for p in r.profile]} for r in ranked],
             "chosen": None if chosen is None else chosen.name,
-            "verdict": "nothing missing" if chosen is None else CANDIDATES[chosen.name].title,
+            "verdict": CANDIDATES[chosen.name].title if chosen is not None else self.unexplained(),
             "magnitude": None if chosen is None else self.values(chosen)[chosen.name],
             "refit": None if chosen is None else fit(chosen),
             "loss_before_after_px": {"fitted": [self.base.loss, (chosen or self.base).loss],

@@ -37,6 +37,10 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     assert {c["effect"] for c in diagnosis["candidates"]} == {"floor_friction", "gravity_tilt"}
     # a sticky-walled channel leaves adhesion nothing to act on; it was not asked for here anyway
     assert diagnosis["chosen"] in (None, "floor_friction", "gravity_tilt")
+    plain = json.loads((result / "plain/diagnosis/diagnosis.json").read_text())
+    if plain["chosen"] is None:  # never "nothing missing": what remains, where and when
+        assert plain["verdict"].startswith("no candidate explains the mismatch that remains (plain_")
+        assert "frames" in plain["verdict"]
     # a tilt of 0 is the base model itself, and every profile starts there: no refit ends worse than the base fit
     tilt, = (c for c in diagnosis["candidates"] if c["effect"] == "gravity_tilt")
     assert tilt["loss_px"] <= diagnosis["base"]["loss_px"]
