@@ -1,10 +1,10 @@
 """concealed_synthesize: the virtual lab films one concealed-effect dam break in each of the scene's channels (its
-own particles, account of the effects and renderer) and writes each as an imported setup, with the truth kept apart
-for scoring."""
+own particles, account of the effects and renderer) and writes each as an imported setup under a label that says
+nothing of the case, with the truth kept apart for scoring."""
 
 import numpy as np
 
-from rheo.experiments.concealed import concealed_truth, film
+from rheo.experiments.concealed import anonymous, concealed_truth, film
 from rheo.io import write_atomic, write_json_atomic
 from rheo.stage import setup_logging
 
@@ -20,7 +20,7 @@ log.info("%s: %s; law tau_y %.4g Pa, K %.4g Pa s, n %.3g; mu %.4g, lam %.4g Pa; 
 channels = case.get("channels", scene["setups"])
 for index, (setup_path, masks_path, geometry) in enumerate(zip(smk.output.setups, smk.output.masks, channels,
                                                                strict=True), start=1):
-    setup = film(scene, geometry, index, smk.params.lab, case["name"], truth, mu, lam, release)
+    setup = film(scene, geometry, index, smk.params.lab, anonymous(case["name"]), truth, mu, lam, release)
     log.info("setup %d (%g m high, %g m long) filmed", index, setup.height, setup.width)
     write_json_atomic(setup_path, {**setup.record(), "units": "SI (m, kg/m^3, Pa, s)", "frames": len(setup.masks)})
     write_atomic(masks_path, lambda p, setup=setup: np.savez_compressed(p, masks=np.stack(setup.masks)))

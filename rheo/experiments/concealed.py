@@ -13,6 +13,7 @@ pairs (a low and a tall column): one geometry alone lets a Bingham law mimic she
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -46,6 +47,11 @@ def channel(scene: dict, geometry: dict, index: int, name: str, masks: list[np.n
     return Setup(folder=Path(f"{name}_{index}"), material=name, index=index, height=height, width=width, depth=depth,
                  density=scene["density"], walls=walls, camera=camera, masks=list(masks or []), start_point=None,
                  fps=scene["fps"])
+
+
+def anonymous(name: str) -> str:
+    """A label that says nothing of what it names: the case's, in the recordings the fit and the diagnosis read."""
+    return "c" + hashlib.sha256(name.encode()).hexdigest()[:8]
 
 
 def rolled(camera: Camera, degrees: float) -> Camera:

@@ -10,7 +10,6 @@ writes one case file per case (``concealed.cases`` then points at the folder) an
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import math
 from pathlib import Path
@@ -18,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from rheo.experiments.concealed import OUTSIDE_EFFECTS, RELEASE_STEP
+from rheo.experiments.concealed import OUTSIDE_EFFECTS, RELEASE_STEP, anonymous
 
 # Magnitudes (low, high), drawn log-uniformly, each well inside what the recording can show and the candidate's box.
 MAGNITUDES: dict[str, tuple[float, float]] = {
@@ -82,8 +81,7 @@ def draw_suite(seed: int, count: int, fps: float = 24.0) -> list[dict]:
     kinds = [kind for kind, n in counts.items() for _ in range(n)]
     kinds += ["one"] * (count - len(kinds))
     rng.shuffle(kinds)
-    return [draw_case(rng, "c" + hashlib.sha256(f"{seed}:{k}".encode()).hexdigest()[:8], kind, fps)
-            for k, kind in enumerate(kinds)]
+    return [draw_case(rng, anonymous(f"{seed}:{k}"), kind, fps) for k, kind in enumerate(kinds)]
 
 
 def main() -> None:
