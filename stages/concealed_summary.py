@@ -1,7 +1,7 @@
 """concealed_summary: every concealed case's named effect against the concealed one (a confusion table), the gain
 on held-out frames, the core parameters' bias before and after the refit, whether the recording shows the effect at
 the fit's resolution at all (the base fit's loss against the truth's in the fit's simulation), and each diagnosis'
-runtime; the scores also as JSON (summary.json) with the code version."""
+runtime; the scores also as JSON (summary.json) with the code version and, for a drawn suite, its seed."""
 
 import numpy as np
 
@@ -101,8 +101,8 @@ body = (f"<h2>Confusion table</h2>{score}{confusion_section(truths, named, label
         f"<h2>Cases</h2>{table}<p>Each case's page: results/concealed/&lt;case&gt;/diagnosis/report.html.</p>")
 write_text_atomic(smk.output.html, page("Concealed effects: what the diagnosis names", body))
 write_json_atomic(smk.output.scores, {
-    "code_version": code_version(), "cases": len(records), "with_effect": effects, "null": nulls,
-    "outside": outside, "top1": hits, "false_alarms": nulls - null_ok + outside - outside_ok,
+    "code_version": code_version(), "suite": smk.params.suite, "cases": len(records), "with_effect": effects,
+    "null": nulls, "outside": outside, "top1": hits, "false_alarms": nulls - null_ok + outside - outside_ok,
     "held_out_down_30pct": held_ok, "forecast_down_30pct": last_ok,
     "core_bias_reduced": reduced, "shown": shown, "shown_named": shown_hits,
     "runtime_min": sum(r["runtime_min"] for r in records), "by_case": records})

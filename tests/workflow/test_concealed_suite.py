@@ -30,4 +30,5 @@ def test_a_small_drawn_suite_scores_at_least_its_floor(workflow):
     assert run.returncode == 0, run.stderr[-3000:]
     scores = json.loads((workflow.root / "results/concealed/summary.json").read_text())
     assert (scores["cases"], scores["null"], scores["outside"]) == (COUNT, 1, 1)
+    assert scores["suite"]["seed"] == SEED and scores["code_version"]
     assert scores["false_alarms"] <= FALSE_ALARMS_CEILING, scores

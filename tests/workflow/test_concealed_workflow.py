@@ -66,4 +66,5 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     assert scores["cases"] == 2 and scores["with_effect"] == 1 and scores["null"] == 1
     assert scores["top1"] == (diagnosis["chosen"] == "floor_friction")
     assert [c["case"] for c in scores["by_case"]] == ["plain", "sliding"] and scores["code_version"]
+    assert scores["suite"] is None  # hand-written cases: no seed
     assert not list(result.glob("*/*/*.evaluations.json"))

@@ -6,6 +6,12 @@ def concealed_cases() -> list[str]:
     return sorted(p.stem for p in Path(config["concealed"]["cases"]).glob("*.yaml"))
 
 
+def concealed_suite() -> dict | None:
+    """How the cases were drawn (seed, count), for a folder that ``rheo.experiments.suite`` wrote; None otherwise."""
+    path = Path(config["concealed"]["cases"]) / "suite.json"
+    return json.loads(path.read_text()) if path.is_file() else None
+
+
 def concealed_case(name: str) -> dict:
     """The case file, validated against its schema."""
     path = Path(config["concealed"]["cases"]) / f"{name}.yaml"
@@ -117,5 +123,6 @@ rule concealed_summary:
     params:
         cases=concealed_cases(),
         candidates=config["diagnose"]["candidates"],
+        suite=concealed_suite(),
     script:
         "../../stages/concealed_summary.py"
