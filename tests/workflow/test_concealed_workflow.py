@@ -11,6 +11,7 @@ from rheo.experiments.concealed import anonymous
 def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow):
     cases = workflow.root / "cases"
     cases.mkdir()
+    (cases / "suite.json").write_text('{"seed": 5, "count": 2}')  # as if drawn (rheo.experiments.suite)
     (cases / "plain.yaml").write_text("name: plain\neffects: []\n")
     (cases / "sliding.yaml").write_text("name: sliding\neffects: [{effect: floor_friction, magnitude: 0.3}]\n"
                                         "release_s: 0.025\n")
@@ -66,5 +67,5 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     assert scores["cases"] == 2 and scores["with_effect"] == 1 and scores["null"] == 1
     assert scores["top1"] == (diagnosis["chosen"] == "floor_friction")
     assert [c["case"] for c in scores["by_case"]] == ["plain", "sliding"] and scores["code_version"]
-    assert scores["suite"] is None  # hand-written cases: no seed
+    assert scores["suite"] == {"seed": 5, "count": 2}  # as the folder's suite.json says
     assert not list(result.glob("*/*/*.evaluations.json"))
