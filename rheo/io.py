@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 from collections.abc import Callable
@@ -32,6 +33,11 @@ def write_json_atomic(path: str | os.PathLike, data) -> None:
 
 def write_text_atomic(path: str | os.PathLike, text: str) -> None:
     write_atomic(path, lambda p: p.write_text(text))
+
+
+def json_number(value: float) -> float | None:
+    """``value`` for a JSON file: null where it is NaN (a loss over no frame)."""
+    return None if math.isnan(value) else value
 
 
 def read_json(path: str | os.PathLike):

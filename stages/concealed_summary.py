@@ -6,7 +6,7 @@ runtime; the scores also as JSON (summary.json) with the code version and, for a
 import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES
-from rheo.io import read_json, write_json_atomic, write_text_atomic
+from rheo.io import json_number, read_json, write_json_atomic, write_text_atomic
 from rheo.report.diagnosis import confusion_section
 from rheo.report.html import page, table_tag
 from rheo.stage import code_version, setup_logging
@@ -66,8 +66,7 @@ for case, d_path, t_path, f_path, o_path in zip(smk.params.cases, smk.input.diag
     concealed = ", ".join(f"{e['effect']} {e['magnitude']:g}" for e in truth["effects"]) or "none"
     records.append({"case": case, "concealed": truth["effects"], "named": chosen,
                     "named_magnitude": diagnosis["magnitude"],
-                    **{key: None if np.isnan(change(pair)) else change(pair)
-                       for key, pair in (("held_out_change_pct", held), ("forecast_change_pct", last))},
+                    "held_out_change_pct": json_number(change(held)), "forecast_change_pct": json_number(change(last)),
                     "core_bias_pct": [bias(base, truth), bias(after, truth)],
                     "shown": bool(fit["loss_px"] > oracle["loss_px"]) if modelled else None,
                     "runtime_min": diagnosis["runtime_s"] / 60})

@@ -29,7 +29,7 @@ from rheo.fit.dam_break import (
 )
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, estimate, start_step, survey_points
-from rheo.io import write_atomic, write_json_atomic
+from rheo.io import json_number, write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import frames_figure
 from rheo.stage import inputs_key, setup_logging
@@ -127,9 +127,9 @@ if band is not None:
 else:
     log.warning("no particle moved faster than %g 1/s: no shear-rate band", MOVING_RATE)
 write_json_atomic(output, {
-    **params, "setups": {name: {"loss_px": d.loss, "held_out_loss_px": None if np.isnan(d.held_out_loss)
-                                else d.held_out_loss, "forecast_loss_px": None if np.isnan(d.forecast_loss)
-                                else d.forecast_loss, "first_frame_after_release_s": d.offset,
+    **params, "setups": {name: {"loss_px": d.loss, "held_out_loss_px": json_number(d.held_out_loss),
+                                "forecast_loss_px": json_number(d.forecast_loss),
+                                "first_frame_after_release_s": d.offset,
                                 "boundary_distance_px": d.distances.tolist(), "silhouette_iou": d.iou.tolist(),
                                 "outflow_iou": d.outflow_iou.tolist()} for name, d in details.items()},
     "within_tolerance": {"evaluations": spread.count, "ridge": spread.ridge, "laws": np.exp(spread.points).tolist(),

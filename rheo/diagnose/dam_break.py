@@ -24,6 +24,7 @@ from rheo.experiments.virheometry import Setup
 from rheo.fit.dam_break import Comparison, compare_law, shear_rate_band, targets
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, simplex_search
+from rheo.io import json_number
 
 logger = logging.getLogger(__name__)
 MIN_LAW_STEP = 0.05  # log units: the smallest initial simplex of a refit's law
@@ -91,16 +92,14 @@ class Diagnosis:
     def record(self) -> dict:
         """diagnosis.json's content."""
 
-        def forecast(refit: Refit) -> float | None:
-            return None if np.isnan(refit.forecast_loss) else refit.forecast_loss
-
         def fit(refit: Refit) -> dict:
             return {"loss_px": refit.loss, "held_out_loss_px": refit.held_out_loss,
-                    "forecast_loss_px": forecast(refit), "criterion": refit.criterion,
+                    "forecast_loss_px": json_number(refit.forecast_loss), "criterion": refit.criterion,
                     "parameters": refit.parameters, "values": self.values(refit)}
 
         ranked = sorted(self.candidates, key=lambda r: r.criterion)
         chosen = self.chosen
+        after = chosen or self.base
         return {
             "base_model": "Bingham (n = 1)" if self.law.n == 1.0 else
                           "Herschel-Bulkley" if self.law.n is None else f"Herschel-Bulkley, n = {self.law.n}",
@@ -116,9 +115,10 @@ class Diagnosis:
             "verdict": CANDIDATES[chosen.name].title if chosen is not None else self.unexplained(),
             "magnitude": None if chosen is None else self.values(chosen)[chosen.name],
             "refit": None if chosen is None else fit(chosen),
-            "loss_before_after_px": {"fitted": [self.base.loss, (chosen or self.base).loss],
-                                     "held_out": [self.base.held_out_loss, (chosen or self.base).held_out_loss],
-                                     "forecast": [forecast(self.base), forecast(chosen or self.base)]},
+            "loss_before_after_px": {"fitted": [self.base.loss, after.loss],
+                                     "held_out": [self.base.held_out_loss, after.held_out_loss],
+                                     "forecast": [json_number(self.base.forecast_loss),
+                                                  json_number(after.forecast_loss)]},
         }
 
 

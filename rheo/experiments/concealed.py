@@ -2,7 +2,7 @@
 lacks (none, one, two, or one that no candidate models), and neither the fit nor the diagnosis is told which.
 
 The lab simulates with the fit's simulator on a finer grid, with its own time step and particles (more per cell) and
-its own account of each effect (``LAB_EFFECTS``, apart from the diagnosis' candidates), and draws the material with
+its own account of each effect (``concealed_truth``, apart from the diagnosis' candidates), and draws the material with
 the virtual lab's renderer (splats of another radius, supersampled); it still shares the fit's simulator, so it is
 not independent of the fit. The recording takes the form of imported ViRheometry setups (setup.json and
 masks.npz: silhouettes that include the container), one per channel of the scene, as the real recordings come in
@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -62,23 +61,10 @@ def rolled(camera: Camera, degrees: float) -> Camera:
     return dataclasses.replace(camera, c2w=camera.c2w @ roll)
 
 
-# The lab's own account of each effect it can film: how it changes the law (tau_y, K, n) and the simulated physics
-# (written apart from the diagnosis' candidates, which the lab never reads).
-def _with_physics(**change):
-    return lambda law, effects: (law, dataclasses.replace(effects, physics=dataclasses.replace(effects.physics,
-                                                                                               **change)))
-
-
-LAB_EFFECTS: dict[str, Callable[[float], Callable]] = {
-    "floor_friction": lambda m: lambda law, fx: (law, dataclasses.replace(fx, floor_friction=m)),
-    "wall_slip": lambda m: lambda law, fx: (law, dataclasses.replace(fx, wall_slip=m)),
-    "wall_adhesion": lambda m: _with_physics(wall_adhesion=m),
-    "gate_lift": lambda m: lambda law, fx: (law, dataclasses.replace(fx, gate_lift_time=m)),
-    "shear_thinning": lambda m: lambda law, fx: ({**law, "n": m}, fx),
-    "thixotropy": lambda m: _with_physics(thixotropy=m),
-    "surface_tension": lambda m: _with_physics(surface_tension=m),
-    "air_drag": lambda m: _with_physics(air_drag=m),
-}
+# The lab's own account of each effect it can film (written apart from the diagnosis' candidates, which the lab never
+# reads): the Effects field it sets, or the optional physics; shear thinning sets the law's n.
+EFFECT_FIELDS = {"floor_friction": "floor_friction", "wall_slip": "wall_slip", "gate_lift": "gate_lift_time"}
+PHYSICS_FIELDS = ("wall_adhesion", "thixotropy", "surface_tension", "air_drag")
 # what the lab can film that no candidate models: the camera rolled about its axis (deg) while the recording states
 # it level
 OUTSIDE_EFFECTS = ("camera_roll",)
@@ -96,17 +82,21 @@ class Truth:
 def concealed_truth(case: dict, base: dict[str, float]) -> Truth:
     """The law and effects the lab films: the case's own ``law`` (else ``base``), Bingham, with each of its
     ``effects`` ({effect, magnitude}) switched on."""
-    truth = Truth({"n": 1.0, **base, **case.get("law", {})}, Effects())
+    law, effects, roll = {"n": 1.0, **base, **case.get("law", {})}, Effects(), 0.0
     for item in case.get("effects", []):
         name, magnitude = item["effect"], item["magnitude"]
-        if name == "camera_roll":
-            truth = dataclasses.replace(truth, camera_roll=truth.camera_roll + magnitude)
-        elif name in LAB_EFFECTS:
-            law, effects = LAB_EFFECTS[name](magnitude)(truth.law, truth.effects)
-            truth = dataclasses.replace(truth, law=law, effects=effects)
+        if name == "shear_thinning":
+            law["n"] = magnitude
+        elif name in EFFECT_FIELDS:
+            effects = dataclasses.replace(effects, **{EFFECT_FIELDS[name]: magnitude})
+        elif name in PHYSICS_FIELDS:
+            effects = dataclasses.replace(effects, physics=dataclasses.replace(effects.physics, **{name: magnitude}))
+        elif name == "camera_roll":
+            roll += magnitude
         else:
-            raise ValueError(f"unknown effect {name!r}; known: {', '.join([*LAB_EFFECTS, *OUTSIDE_EFFECTS])}")
-    return truth
+            known = ["shear_thinning", *EFFECT_FIELDS, *PHYSICS_FIELDS, *OUTSIDE_EFFECTS]
+            raise ValueError(f"unknown effect {name!r}; known: {', '.join(known)}")
+    return Truth(law, effects, roll)
 
 
 def film(scene: dict, geometry: dict, index: int, lab: dict, name: str, truth: Truth, mu: float, lam: float,

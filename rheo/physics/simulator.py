@@ -356,9 +356,9 @@ class _Run:
         self.backward_done = False
         # walls' adhesion (Pa) on a layer a cell thick: its velocity change per step
         self.adhesion_cut = sim.physics.wall_adhesion * dt / (material.density * sim.dx)
-        # a wall-face node's mass under material on one side: half a cell's (the B-spline's weight beyond the face)
-        self.face_mass = 0.5 * material.density * sim.dx**3
         self.full_mass = material.density * sim.dx**3  # a node's mass inside the material at rest
+        # a wall-face node's mass under material on one side: half a cell's (the B-spline's weight beyond the face)
+        self.face_mass = 0.5 * self.full_mass
         self._recorded: dict[tuple[str, int], wp.Launch] = {}
 
     def _launch(self, name: str, i: int, build, dim=None, changed: dict[int, object] | None = None) -> None:

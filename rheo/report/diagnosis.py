@@ -79,13 +79,13 @@ def section(record: dict, maps: bytes | None = None, extra: str = "") -> str:
                 f"{100 * (pair[1] / pair[0] - 1):+.0f} % change.")
 
     gains = (gain(losses["held_out"], "Loss on the frames held out between fitted ones")
-             + gain(losses.get("forecast", [None, None]), "Loss on the last frames, held out as a prediction"))
+             + gain(losses["forecast"], "Loss on the last frames, held out as a prediction"))
     verdict = (f"<p><b>Verdict: {record['verdict']}</b>"
                + ("" if chosen is None else f", fitted magnitude {_value(record['magnitude'])}") + ". "
                f"Fitted frames' loss {_value(before[0])} px before, {_value(before[1])} px after.{gains}</p>")
     mismatch = "".join(f"<p>{name}: {m['words']}</p>" for name, m in record["mismatch"].items())
     def losses_of(fit: dict) -> list[str]:
-        return [_value(fit["loss_px"]), _value(fit["held_out_loss_px"]), _value(fit.get("forecast_loss_px"))]
+        return [_value(fit["loss_px"]), _value(fit["held_out_loss_px"]), _value(fit["forecast_loss_px"])]
 
     rows = [["base model", "0", *losses_of(record["base"]), "-",
              ", ".join(f"{k} {_value(v)}" for k, v in record["base"]["values"].items())]]

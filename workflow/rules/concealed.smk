@@ -36,13 +36,6 @@ def concealed_recordings(kind: str) -> list[str]:
             for k in range(1, len(config["concealed"]["scene"]["setups"]) + 1)]
 
 
-def concealed_simulation() -> dict:
-    """The fit's simulation: the real dam breaks' (grid, step, particles, elastic constants, search of the first
-    frame's time after the release), every few frames and the last ones held out."""
-    return {**config["virheometry"]["simulation"], "held_out_every": config["diagnose"]["held_out_every"],
-            "forecast_share": config["diagnose"]["forecast_share"]}
-
-
 def concealed_fit_settings() -> dict:
     return {**config["concealed"]["fit"], "flow_index": 1.0}
 
@@ -86,7 +79,7 @@ rule concealed_fit:
         case=r"[A-Za-z0-9_.]+",
     threads: 2
     params:
-        simulation=concealed_simulation(),
+        simulation=virheometry_held_out_simulation(),
         settings=concealed_fit_settings(),
     script:
         "../../stages/virheometry_fit.py"
@@ -104,7 +97,7 @@ rule concealed_oracle:
     wildcard_constraints:
         case=r"[A-Za-z0-9_.]+",
     params:
-        simulation=concealed_simulation(),
+        simulation=virheometry_held_out_simulation(),
     script:
         "../../stages/concealed_oracle.py"
 

@@ -47,7 +47,7 @@ rule concealed_diagnose:
         case=r"[A-Za-z0-9_.]+",
     threads: 2
     params:
-        **diagnose_params(concealed_fit_settings(), concealed_simulation()),
+        **diagnose_params(concealed_fit_settings(), virheometry_held_out_simulation()),
         title=lambda w: f"concealed case {w.case}: what the Bingham model leaves out",
     script:
         "../../stages/diagnose.py"

@@ -52,7 +52,8 @@ def virheometry_bingham_settings() -> dict:
 
 
 def virheometry_held_out_simulation() -> dict:
-    """The simulation of fits that hold out every few frames of the recordings."""
+    """The simulation of fits that hold out every few frames and the last ones of the recordings (real dam breaks
+    and concealed cases alike)."""
     return {**config["virheometry"]["simulation"], "held_out_every": config["diagnose"]["held_out_every"],
             "forecast_share": config["diagnose"]["forecast_share"]}
 
