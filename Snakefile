@@ -1,13 +1,28 @@
 # rheo: Herschel-Bulkley rheology from video through differentiable simulation.
-from snakemake.utils import min_version, validate
+from pathlib import Path
+
+from snakemake.exceptions import WorkflowError
+from snakemake.utils import min_version
+
+from rheo.config import ConfigError, load_schema, load_yaml, validated
 
 min_version("9.0")
+
+
+try:
+    load_yaml("config/config.yaml")  # syntax and duplicate keys, which Snakemake's reader lets pass
+except ConfigError as error:
+    raise WorkflowError(str(error)) from None
 
 
 configfile: "config/config.yaml"
 
 
-validate(config, "workflow/schemas/config.schema.yaml")
+try:
+    validated(config, load_schema(Path(workflow.basedir) / "workflow/schemas/config.schema.yaml"),
+              "config/config.yaml (with --config)")
+except ConfigError as error:
+    raise WorkflowError(str(error)) from None
 
 
 include: "workflow/rules/common.smk"

@@ -20,9 +20,8 @@ from functools import partial
 from pathlib import Path
 
 import numpy as np
-import yaml
-from snakemake.utils import validate
 
+from rheo.config import load_checked, load_schema
 from rheo.diagnose.candidates import Law
 from rheo.experiments.virheometry import setup_folders
 from rheo.fit.dam_break import RESULT_KEYS, comparisons, setup_files
@@ -34,9 +33,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def settings(config_file: Path) -> dict:
     """The workflow's configuration with the schema's defaults filled in."""
-    config = yaml.safe_load(config_file.read_text()) or {}
-    validate(config, str(ROOT / "workflow/schemas/config.schema.yaml"))
-    return config
+    return load_checked(config_file, load_schema(ROOT / "workflow/schemas/config.schema.yaml"))
 
 
 def measure_material(material: str, results: Path, benchmarks: Path, simulation: dict, workers: int) -> dict:

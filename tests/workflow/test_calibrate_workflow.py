@@ -38,4 +38,5 @@ def test_bad_experiment_key_is_named(workflow):
     _experiment(workflow, fix_aspect=True)
     run = workflow.run("-n", "results/opencv_left/calibration/cameras.json")
     assert run.returncode != 0
-    assert "'fix_aspect' was unexpected" in run.stdout + run.stderr
+    assert "config/experiments/opencv_left.yaml: calibration" in run.stdout
+    assert "'fix_aspect' (did you mean 'fix_aspect_ratio'?) is not a key here" in run.stdout

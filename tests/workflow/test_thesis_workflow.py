@@ -45,4 +45,5 @@ def test_bad_config_value_is_refused(workflow):
     (tmp_path / "config/config.yaml").write_text(yaml.safe_dump(bad))
     run = workflow.run("-n", "results/thesis/collapse.html")
     assert run.returncode != 0
-    assert "2 is less than the minimum of 8" in run.stdout + run.stderr
+    assert "config/config.yaml (with --config): thesis.collapse.resolution" in run.stdout
+    assert "2 must be at least 8" in run.stdout

@@ -1,9 +1,13 @@
 # Shared helpers and wildcard constraints.
+import functools
 import glob
 import json
 from pathlib import Path
 
-import yaml
+from rheo.config import ConfigError, load_checked, load_schema, load_yaml
+from rheo.experiments.cost import check_cost, experiment_cost
+
+EXPERIMENT_SCHEMA = load_schema(Path(workflow.basedir) / "workflow/schemas/experiment.schema.yaml")
 
 wildcard_constraints:
     # results/thesis and results/virheometry hold the thesis' tables and the real dam breaks, not experiments
@@ -33,17 +37,22 @@ def simulation_setup():
 
 
 def experiment(name):
-    """The experiment config/experiments/<name>.yaml, validated against its schema (defaults filled in)."""
+    """The experiment config/experiments/<name>.yaml, validated against its schema (defaults filled in) and its
+    estimated cost within config's limits."""
     path = Path("config/experiments") / f"{name}.yaml"
     if not path.is_file():
-        raise ValueError(f"{path}: no such experiment config")
-    with open(path) as f:
-        exp = yaml.safe_load(f) or {}
-    validate(exp, str(Path(workflow.basedir) / "workflow/schemas/experiment.schema.yaml"))
-    if exp["name"] != name:
-        raise ValueError(f"{path}: name {exp['name']!r} differs from the file name {name!r}")
+        raise ConfigError(f"{path}: no such experiment config")
     # keys sorted, so that params (compared as text by Snakemake) do not change with the order in the file
-    return json.loads(json.dumps(exp, sort_keys=True))
+    return json.loads(_checked_experiment(path, path.stat().st_mtime_ns))
+
+
+@functools.cache
+def _checked_experiment(path, modified):
+    exp = load_checked(path, EXPERIMENT_SCHEMA)
+    if exp["name"] != path.stem:
+        raise ConfigError(f"{path}: name {exp['name']!r} differs from the file name {path.stem!r}")
+    check_cost(experiment_cost(exp), config["limits"], str(path))
+    return json.dumps(exp, sort_keys=True)
 
 
 def calibration_images(name):
@@ -89,12 +98,16 @@ def virtual_experiment(name):
 
 
 def experiments_of_kind(kind):
-    """A wildcard pattern matching the experiments of one kind (virtual or real), from config/experiments."""
+    """A wildcard pattern matching the experiments of one kind (virtual or real), from config/experiments. A file
+    that cannot be read counts as real, so that only its own targets fail, with experiment()'s message."""
     names = []
     for path in sorted(Path("config/experiments").glob("*.yaml")):
-        with open(path) as f:
-            exp = yaml.safe_load(f) or {}
-        if exp.get("kind", "real") == kind:
+        try:
+            content = load_yaml(path)
+            virtual = isinstance(content, dict) and content.get("kind") == "virtual"
+        except ConfigError:
+            virtual = False
+        if ("virtual" if virtual else "real") == kind:
             names.append(path.stem)
     return "|".join(names) if names else "(?!)"
 

@@ -2,6 +2,9 @@
 # none); the fit and the diagnosis are not told which, and the summary scores what the diagnosis named.
 
 
+CASE_SCHEMA = load_schema(Path(workflow.basedir) / "workflow/schemas/concealed_case.schema.yaml")
+
+
 def concealed_cases() -> list[str]:
     return sorted(p.stem for p in Path(config["concealed"]["cases"]).glob("*.yaml"))
 
@@ -16,17 +19,13 @@ def concealed_case(name: str) -> dict:
     """The case file, validated against its schema."""
     path = Path(config["concealed"]["cases"]) / f"{name}.yaml"
     if not path.is_file():
-        raise ValueError(f"{path}: no such concealed case")
-    try:
-        case = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as err:
-        raise ValueError(f"{path}: not valid YAML ({err})") from None
-    validate(case, str(Path(workflow.basedir) / "workflow/schemas/concealed_case.schema.yaml"))
+        raise ConfigError(f"{path}: no such concealed case")
+    case = load_checked(path, CASE_SCHEMA)
     if case["name"] != name:
-        raise ValueError(f"{path}: name {case['name']!r} differs from the file name {name!r}")
+        raise ConfigError(f"{path}: name {case['name']!r} differs from the file name {name!r}")
     channels = len(config["concealed"]["scene"]["setups"])
     if len(case.get("channels", [None] * channels)) != channels:
-        raise ValueError(f"{path}: {len(case['channels'])} channels given, the scene films {channels}")
+        raise ConfigError(f"{path}: {len(case['channels'])} channels given, the scene films {channels}")
     return case
 
 
