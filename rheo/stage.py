@@ -5,22 +5,37 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+import os
 import subprocess
 import sys
+import traceback
 from pathlib import Path
 
 import rheo
 
 
 def setup_logging(log_file: str | Path | None) -> logging.Logger:
-    """Log INFO and above to ``log_file`` (if given) and to stderr; return the stage's logger."""
+    """Log INFO and above to ``log_file`` (if given) and to stderr; return the stage's logger. An error of rheo's
+    own (bad input, an unstable simulation) ends the stage with its one sentence, the traceback going to the log
+    file only (and to stderr too with RHEO_DEBUG=1)."""
     handlers: list[logging.Handler] = [logging.StreamHandler(sys.stderr)]
     if log_file:
         Path(log_file).parent.mkdir(parents=True, exist_ok=True)
         handlers.append(logging.FileHandler(log_file, mode="w"))
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(levelname)s: %(message)s",
                         handlers=handlers, force=True)
-    return logging.getLogger("rheo.stage")
+    log = logging.getLogger("rheo.stage")
+
+    def report(kind: type[BaseException], error: BaseException, trace) -> None:
+        if not kind.__module__.startswith("rheo.") or os.environ.get("RHEO_DEBUG"):
+            sys.__excepthook__(kind, error, trace)
+        log.error("%s", error)
+        if log_file:
+            with open(log_file, "a") as f:
+                f.write("".join(traceback.format_exception(kind, error, trace)))
+
+    sys.excepthook = report
+    return log
 
 
 def code_version() -> str:

@@ -34,7 +34,7 @@ board = Board(**cfg["board"])
 intrinsics, views, boards = {}, {}, defaultdict(list)
 for name, cam in cfg["cameras"].items():
     intr = calibrate_intrinsics(sorted(glob.glob(cam["images"])), board, fix_aspect_ratio=cfg["fix_aspect_ratio"],
-                                min_views=cfg["min_views"])
+                                min_views=cfg["min_views"], camera=f"camera {name}")
     log.info("camera %s: fx=%.2f fy=%.2f cx=%.2f cy=%.2f, RMS %.3f px over %d images (%d skipped)", name,
              intr.K[0, 0], intr.K[1, 1], intr.K[0, 2], intr.K[1, 2], intr.rms_px, len(intr.per_view_rms_px),
              len(intr.skipped))

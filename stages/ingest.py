@@ -23,7 +23,7 @@ def write(out: Path) -> None:
         frames, rate = read_frames(cam["source"], cam["start_frame"], cam["stop_frame"], cam["fps"],
                                    cam["source_fps"])
         plate = imageio.imread(cam["clean_plate"])[..., :3] if cam["clean_plate"] else None
-        write_camera(out / name, frames, plate)
+        write_camera(out / name, frames, plate, cam["clean_plate"])
         summary[name] = {"frames": len(frames), "fps": rate, "source": cam["source"]}
         log.info("%s: %d frames at %g fps from %s", name, len(frames), rate, cam["source"])
         picks = sorted({0, len(frames) // 2, len(frames) - 1})

@@ -28,6 +28,9 @@ CM = 0.01  # m
 G_PER_CM3 = 1000.0  # kg/m^3
 DYN_PER_CM2 = 0.1  # Pa
 FPS = 24.0
+FRAMES = 8  # silhouettes per setup, config_01.png to config_08.png
+DENSITY_RANGE = (300.0, 3000.0)  # kg/m^3: pastes, creams and sauces lie well inside it
+MASK_COVERAGE = (1e-4, 0.9)  # share of the image a silhouette (with its container) may cover
 FOLDER_NAME = re.compile(r"^ref_(?P<material>[A-Za-z0-9]+)_(?P<H>\d+(?:\.\d+)?)_(?P<W>\d+(?:\.\d+)?)_(?P<k>\d+)$")
 CONTACTS = {"sticking": "sticky", "slipping": "slip"}
 CONTAINER_RIM = 3  # px at half the window size: how much wider the recorded container is than the cuboid's outline
@@ -174,8 +177,11 @@ def read_masks(folder: Path, width: int, height: int) -> list[np.ndarray]:
     if not paths:
         raise SetupError(f"{folder}: no silhouettes config_01.png, config_02.png, ...")
     numbers = [int(p.stem.split("_")[1]) for p in paths]
-    if numbers != list(range(1, len(paths) + 1)):
-        raise SetupError(f"{folder}: silhouettes config_NN.png are not numbered 01 to {len(paths):02d} without gaps")
+    expected = range(1, max(FRAMES, len(paths)) + 1)
+    missing = [f"config_{k:02d}.png" for k in expected if k not in numbers]
+    if missing:
+        raise SetupError(f"{folder}: {', '.join(missing)} missing; a setup holds the silhouettes config_01.png to "
+                         f"config_{len(expected):02d}.png")
     masks = []
     for path in paths:
         image = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
@@ -185,6 +191,11 @@ def read_masks(folder: Path, width: int, height: int) -> list[np.ndarray]:
             raise SetupError(f"{path}: {image.shape[1]}x{image.shape[0]} px does not have the camera's aspect "
                              f"{width}x{height}")
         material = (image < 128).astype(np.float32)
+        coverage = float(material.mean())
+        if not MASK_COVERAGE[0] <= coverage <= MASK_COVERAGE[1]:
+            raise SetupError(f"{path}: the silhouette covers {100 * coverage:.3g} % of the image; black marks the "
+                             f"material and its container, white the rest ({100 * MASK_COVERAGE[0]:g} to "
+                             f"{100 * MASK_COVERAGE[1]:g} % expected)")
         masks.append(cv2.resize(material, (width, height), interpolation=cv2.INTER_AREA) >= 0.5)
     return masks
 
@@ -206,6 +217,10 @@ def read_setup(folder: str | Path, scale: float = 1.0) -> Setup:
     settings_path, camera_path = folder / "settings.xml", folder / "camera_params.xml"
     settings, camera_xml = _xml(settings_path), _xml(camera_path, salvage="camera")
     (rho,), (height,), (width,) = (_attribute(settings_path, settings, "setup", n) for n in ("RHO", "H", "W"))
+    if not DENSITY_RANGE[0] <= rho * G_PER_CM3 <= DENSITY_RANGE[1]:
+        raise SetupError(f"{settings_path}: <setup RHO={rho:g}> is a density of {rho * G_PER_CM3:g} kg/m^3; RHO is in "
+                         f"g/cm^3, between {DENSITY_RANGE[0] / G_PER_CM3:g} and {DENSITY_RANGE[1] / G_PER_CM3:g} "
+                         "for a paste")
     # the simulated cuboid reaches x = W, y = H; one published <setup> swaps H and W, which the cuboid, the walls
     # and the folder name agree on
     cuboid_width, cuboid_height = _attribute(settings_path, settings, "cuboid", "max", 3)[:2]

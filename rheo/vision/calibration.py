@@ -105,12 +105,15 @@ def canonical_order(gray: np.ndarray, corners: np.ndarray, board: Board) -> np.n
 
 
 def calibrate_intrinsics(images: Sequence[str | Path], board: Board, *, fix_aspect_ratio: bool = False,
-                         min_views: int = 3) -> Intrinsics:
-    """Intrinsics and distortion (k1, k2, p1, p2, k3) from checkerboard photos of one camera.
+                         min_views: int = 3, camera: str = "this camera") -> Intrinsics:
+    """Intrinsics and distortion (k1, k2, p1, p2, k3) from checkerboard photos of one camera (named ``camera`` in
+    messages).
 
     Images where the board is not found are skipped with a warning naming them; fewer than ``min_views`` usable
     images is a CalibrationError.
     """
+    if not images:
+        raise CalibrationError(f"{camera}: no checkerboard images given")
     object_points, image_points, names, skipped = [], [], [], []
     size = None
     for path in images:
@@ -127,11 +130,12 @@ def calibrate_intrinsics(images: Sequence[str | Path], board: Board, *, fix_aspe
         image_points.append(corners)
         names.append(Path(path).name)
     if skipped:
-        logger.warning("no %dx%d board found in %d of %d images: %s", board.columns, board.rows, len(skipped),
-                       len(images), ", ".join(skipped))
+        logger.warning("%s: no %dx%d board found in %d of %d images: %s", camera, board.columns, board.rows,
+                       len(skipped), len(images), ", ".join(skipped))
     if len(names) < min_views:
-        raise CalibrationError(f"only {len(names)} of {len(images)} images show the {board.columns}x{board.rows} "
-                               f"board; at least {min_views} are needed")
+        raise CalibrationError(f"{camera}: only {len(names)} of {len(images)} images (in {Path(images[0]).parent}) "
+                               f"show the {board.columns}x{board.rows} board (inner corners); at least {min_views} "
+                               "are needed")
     flags = cv2.CALIB_FIX_ASPECT_RATIO if fix_aspect_ratio else 0
     K0 = np.eye(3)
     rms, K, dist, rvecs, tvecs = cv2.calibrateCamera(object_points, image_points, size, K0, None, flags=flags)

@@ -2,9 +2,11 @@
 by projecting the initial cuboid onto the first silhouette, and clear errors for broken folders."""
 
 import json
+import re
 import shutil
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 
@@ -75,14 +77,19 @@ def setup_copy(tmp_path):
     (lambda d: (d / "settings.xml").write_text("<Optimizer><setup RHO='1.0'"), "settings.xml: not valid XML"),
     (lambda d: (d / "camera_params.xml").write_text("<setup3D><camera fov='36'/></setup3D>"),
      "camera_params.xml: no <camera eyepos"),
-    (lambda d: (d / "config_03.png").unlink(), "not numbered 01 to 07"),
+    (lambda d: (d / "config_03.png").unlink(), "config_03.png missing"),
+    (lambda d: (d / "config_08.png").unlink(), "config_08.png missing"),
+    (lambda d: cv2.imwrite(str(d / "config_04.png"), np.zeros((540, 960), np.uint8)),
+     "config_04.png: the silhouette covers 100 % of the image"),
+    (lambda d: (d / "settings.xml").write_text(re.sub(r'RHO="[^"]*"', 'RHO="-1"', (d / "settings.xml").read_text())),
+     "settings.xml: <setup RHO=-1> is a density of -1000 kg/m^3"),
     (lambda d: (d / "config_02.png").write_bytes(b"not a png"), "config_02.png: not a readable image"),
     (lambda d: (d / "settings.xml").write_text((d / "settings.xml").read_text().replace("sticking", "glued", 1)),
      "boundary_behavior 'glued' unknown"),
 ])
 def test_a_broken_folder_gives_one_clear_error_naming_the_file(setup_copy, breakage, message):
     breakage(setup_copy)
-    with pytest.raises(SetupError, match=message.replace("(", r"\(")):
+    with pytest.raises(SetupError, match=re.escape(message)):
         read_setup(setup_copy, scale=0.25)
 
 

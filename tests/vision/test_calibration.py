@@ -43,10 +43,13 @@ def test_images_without_a_board_are_named_and_too_few_is_an_error(tmp_path, capl
     cv2.imwrite(str(blank), np.full((480, 640), 127, np.uint8))
     with caplog.at_level(logging.WARNING):
         intr = calibrate_intrinsics([*images, blank], BOARD)
-    assert "no 9x6 board found in 1 of 5 images: blank.png" in caplog.text
+    assert "this camera: no 9x6 board found in 1 of 5 images: blank.png" in caplog.text
     assert intr.skipped == ["blank.png"]
-    with pytest.raises(CalibrationError, match="only 1 of 2 images show the 9x6 board; at least 3 are needed"):
-        calibrate_intrinsics([images[0], blank], BOARD)
+    with pytest.raises(CalibrationError, match=r"camera left: only 1 of 2 images \(in .*\) show the 9x6 board "
+                                               r"\(inner corners\); at least 3 are needed"):
+        calibrate_intrinsics([images[0], blank], BOARD, camera="camera left")
+    with pytest.raises(CalibrationError, match="camera left: no checkerboard images given"):
+        calibrate_intrinsics([], BOARD, camera="camera left")
     unreadable = tmp_path / "broken.jpg"
     unreadable.write_bytes(b"not an image")
     with pytest.raises(CalibrationError, match=r"broken\.jpg: not a readable image"):

@@ -56,10 +56,17 @@ def _checked_experiment(path, modified):
 
 
 def calibration_images(name):
-    cams = calibration_config(name)["cameras"]
+    """Every camera's checkerboard images and floor-board image; a pattern that matches nothing is refused."""
     files = set()
-    for cam in cams.values():
-        files.update(glob.glob(cam["images"]))
+    for camera, cam in calibration_config(name)["cameras"].items():
+        matched = glob.glob(cam["images"])
+        if not matched:
+            raise ConfigError(f"config/experiments/{name}.yaml: calibration.cameras.{camera}.images: the pattern "
+                              f"{cam['images']!r} matches no file (relative to {Path.cwd()})")
+        if not Path(cam["ground_image"]).is_file():
+            raise ConfigError(f"config/experiments/{name}.yaml: calibration.cameras.{camera}.ground_image: no such "
+                              f"file {cam['ground_image']!r}")
+        files.update(matched)
         files.add(cam["ground_image"])
     return sorted(files)
 
