@@ -121,9 +121,8 @@ def experiment_cost(exp: dict) -> Cost | None:
 
 
 def _about(value: float) -> str:
-    """A figure to two significant digits, without an exponent."""
-    digits = max(0, 1 - math.floor(math.log10(value))) if value > 0 else 0
-    return f"{round(value, digits):,.{digits}f}"
+    """A figure to about two significant digits, without an exponent."""
+    return f"{value:,.0f}" if value >= 100 else f"{value:.2g}"
 
 
 def default_memory_limit_gb() -> float:

@@ -15,10 +15,14 @@ class Workflow:
     def __init__(self, root: Path) -> None:
         self.root = root
 
-    def run(self, *args: str) -> subprocess.CompletedProcess:
+        self.env = {**os.environ, "PYTHONPATH": str(REPO)}
+
+    def command(self, *args: str) -> list[str]:
         executable = shutil.which("snakemake") or str(Path(sys.executable).parent / "snakemake")
-        env = {**os.environ, "PYTHONPATH": str(REPO)}
-        return subprocess.run([executable, *args, "-j2"], cwd=self.root, env=env, capture_output=True, text=True,
+        return [executable, *args, "-j2"]
+
+    def run(self, *args: str) -> subprocess.CompletedProcess:
+        return subprocess.run(self.command(*args), cwd=self.root, env=self.env, capture_output=True, text=True,
                               timeout=600)
 
 
