@@ -26,12 +26,17 @@ class Workflow:
                               timeout=600)
 
 
-@pytest.fixture
-def workflow(tmp_path) -> Workflow:
-    root = tmp_path / "repo"
-    root.mkdir()
+def scratch_workflow(folder: Path) -> Workflow:
+    """A copy of the workflow in ``folder``/repo, with ../shared beside it as beside the repository."""
+    root = folder / "repo"
+    root.mkdir(parents=True)
     for item in ("Snakefile", "workflow", "stages", "config"):
         src = REPO / item
         (shutil.copytree if src.is_dir() else shutil.copy)(src, root / item)
-    (tmp_path / "shared").symlink_to(REPO.parent / "shared")  # ../shared, as beside the repository
+    (folder / "shared").symlink_to(REPO.parent / "shared")
     return Workflow(root)
+
+
+@pytest.fixture
+def workflow(tmp_path) -> Workflow:
+    return scratch_workflow(tmp_path)

@@ -1,0 +1,45 @@
+"""A run killed in the middle of the fit (SIGKILL to Snakemake and its jobs) resumes, after --unlock, with
+--rerun-incomplete to the same params.json, byte for byte, as a run never interrupted; finished stages are not run again."""
+
+import json
+import os
+import signal
+import subprocess
+import time
+
+import pytest
+
+from tests.workflow.conftest import scratch_workflow
+
+TARGET = "results/tiny/fit/params.json"
+
+
+@pytest.mark.slow
+def test_a_fit_killed_half_way_resumes_to_the_same_bytes(tmp_path):
+    whole = scratch_workflow(tmp_path / "whole")
+    run = whole.run(TARGET)
+    assert run.returncode == 0, run.stderr[-3000:]
+
+    killed = scratch_workflow(tmp_path / "killed")
+    assert killed.run("results/tiny/fit/warmup.json").returncode == 0
+    store = killed.root / "results/tiny/fit/params.evaluations.json"
+    job = subprocess.Popen(killed.command(TARGET), cwd=killed.root, env=killed.env, start_new_session=True,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while time.monotonic() < deadline and job.poll() is None:
+        if store.is_file() and len(json.loads(store.read_text() or "{}").get("records", [])) >= 10:
+            break
+        time.sleep(0.2)
+    assert job.poll() is None, "the fit ended before it could be killed"
+    os.killpg(job.pid, signal.SIGKILL)
+    job.wait()
+    assert not (killed.root / TARGET).exists()
+    warmup_time = (killed.root / "results/tiny/fit/warmup.json").stat().st_mtime_ns
+
+    assert "cannot be locked" in killed.run(TARGET).stderr  # a killed Snakemake leaves its lock
+    assert killed.run(TARGET, "--unlock").returncode == 0
+    resumed = killed.run(TARGET, "--rerun-incomplete")
+    assert resumed.returncode == 0, resumed.stderr[-3000:]
+    assert "replaying" in (killed.root / "logs/tiny/fit.log").read_text()
+    assert (killed.root / "results/tiny/fit/warmup.json").stat().st_mtime_ns == warmup_time
+    assert (killed.root / TARGET).read_bytes() == (whole.root / TARGET).read_bytes()
