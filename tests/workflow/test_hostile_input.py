@@ -2,6 +2,7 @@
 key (or a warning with both counts), before anything long runs; one bad experiment breaks only its own targets; a
 second run on the same folder is refused by the lock."""
 
+import os
 import re
 import shutil
 import signal
@@ -217,3 +218,19 @@ def test_a_second_run_on_the_same_folder_is_refused_by_the_lock(workflow):
     finally:
         first.send_signal(signal.SIGINT)
         first.wait(timeout=60)
+
+
+def test_a_synthesize_killed_half_way_leaves_no_hidden_folder_after_the_next_run(workflow):
+    results = workflow.root / "results/tiny"
+    job = subprocess.Popen(workflow.command("results/tiny/recordings"), cwd=workflow.root, env=workflow.env,
+                           start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 120
+    while not list(results.glob(".recordings.*")) and time.monotonic() < deadline and job.poll() is None:
+        time.sleep(0.1)
+    os.killpg(job.pid, signal.SIGKILL)
+    job.wait()
+    assert list(results.glob(".recordings.*")) and not (results / "recordings").exists()
+    workflow.run("--unlock")
+    run = workflow.run("results/tiny/recordings", "--rerun-incomplete")
+    assert run.returncode == 0, _output(run)[-2000:]
+    assert (results / "recordings/recording.json").is_file() and not list(results.glob(".recordings.*"))
