@@ -54,6 +54,7 @@ BAD_VALUES = [
     ("fit.tolerance", ".nan", "fit.tolerance: nan is not a finite number"),
     ("fit.warmup.box", ".inf", "fit.warmup.box: inf is not a finite number"),
     ("fit.initial_guess.tau_y", ".nan", "fit.initial_guess.tau_y: nan is not a finite number"),
+    ("material.density", "1.0", "material.density (density (kg/m^3): foams to metal pastes): 1.0 must be at least 50"),
     ("material.lam", "-5000", "material.lam (Lame lambda (Pa)): -5000 must be at least 0"),
     ("simulation.duration", ".nan", "simulation.duration: nan is not a finite number"),
     ("proxy.position", "[.nan, 0, 0.5]", "proxy.position[0]: nan is not a finite number"),

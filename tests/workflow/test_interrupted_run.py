@@ -1,5 +1,6 @@
 """A run killed in the middle of the fit (SIGKILL to Snakemake and its jobs) resumes, after --unlock, with
---rerun-incomplete to the same params.json, byte for byte, as a run never interrupted; finished stages are not run again."""
+--rerun-incomplete to the same params.json, byte for byte, as a run never interrupted; finished stages are not run
+again."""
 
 import json
 import os
