@@ -1,6 +1,8 @@
 """novel: the recovered material on a new shape (the Stanford bunny by default), filmed by a calibrated camera with
 the lab renderer: an mp4 and a strip of the beginning, middle and end."""
 
+from pathlib import Path
+
 import imageio.v2 as imageio
 
 from rheo.experiments.novel import mesh_particles, recovered_material, simulate
@@ -15,6 +17,9 @@ smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = setup_logging(smk.log[0])
 exp = smk.params.experiment
 cfg, sim_cfg = exp["novel"], exp["simulation"]
+if "duration" not in sim_cfg:  # a real recording: as long as the first camera's
+    recorded = next(iter(read_json(Path(smk.input.recordings) / "recording.json").values()))
+    sim_cfg.update(frames=recorded["frames"], duration=(recorded["frames"] - 1) / recorded["fps"])
 params = read_json(smk.input.params)
 cameras = read_json(smk.input.cameras)["cameras"]
 camera = Camera.from_record(cameras[cfg["camera"] or next(iter(cameras))])

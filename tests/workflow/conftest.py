@@ -30,7 +30,7 @@ def scratch_workflow(folder: Path) -> Workflow:
     """A copy of the workflow in ``folder``/repo, with ../shared beside it as beside the repository."""
     root = folder / "repo"
     root.mkdir(parents=True)
-    for item in ("Snakefile", "workflow", "stages", "config"):
+    for item in ("Snakefile", "workflow", "stages", "config", "examples"):
         src = REPO / item
         (shutil.copytree if src.is_dir() else shutil.copy)(src, root / item)
     (folder / "shared").symlink_to(REPO.parent / "shared")

@@ -5,6 +5,7 @@ rule novel:
     input:
         params="results/{experiment}/fit/params.json",
         cameras="results/{experiment}/calibration/cameras.json",
+        recordings="results/{experiment}/recordings",
     output:
         video="results/{experiment}/novel/bunny.mp4",
         strip="results/{experiment}/novel/bunny.png",
