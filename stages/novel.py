@@ -1,5 +1,5 @@
-"""novel: the recovered material on a new shape (the Stanford bunny by default), filmed by a calibrated camera with
-the lab renderer: an mp4 and a strip of the beginning, middle and end."""
+"""novel: the recovered material on a new shape (the Stanford bunny by default), filmed by a calibrated camera and
+drawn as a shaded surface framed to fill the view: an mp4 and a strip of the beginning, middle and end."""
 
 from pathlib import Path
 
@@ -8,7 +8,7 @@ import imageio.v2 as imageio
 from rheo.experiments.novel import mesh_particles, recovered_material, simulate
 from rheo.experiments.scene import particle_spacing, simulator
 from rheo.io import read_json, write_atomic
-from rheo.render.lab import render
+from rheo.render.surface import framing, surface_image
 from rheo.report.figures import contact_sheet, save_figure
 from rheo.stage import setup_logging
 from rheo.vision.cameras import Camera
@@ -32,7 +32,9 @@ log.info("%s scaled to %.3g m: %d particles; simulating %g s with %s", cfg["mesh
          sim_cfg["duration"], material)
 positions = simulate(simulator(exp, sim_cfg["resolution"], mat=material), particles, spacing, sim_cfg["duration"],
                      sim_cfg["frames"])
-images = [render(camera, p, spacing)[0] for p in positions]
+images = [surface_image(p, spacing, camera) for p in positions]
+rows, cols = framing(images)  # the shape fills the view
+images = [(255 * image[rows, cols] + 0.5).astype("uint8") for image in images]
 fps = (len(images) - 1) / sim_cfg["duration"]
 write_atomic(smk.output.video, lambda path: imageio.mimwrite(path, images, format="FFMPEG", fps=max(fps, 1.0),
                                                              macro_block_size=1, quality=8))

@@ -18,9 +18,10 @@ from rheo.report.fit import (
     focus_crop,
     frames_figure,
     gif_tag,
+    material_colour,
     observed_crop,
     render,
-    rendered_crop,
+    surface_crop,
     training_figure,
 )
 from rheo.report.html import figure_tag, image_tag
@@ -34,14 +35,18 @@ with open(smk.input.history) as f:
     history = list(csv.DictReader(f))
 names = list(params["parameters"])
 truth = {k: p["truth"] for k, p in params["parameters"].items() if "truth" in p}
-sections = [("Training (warm-up survey on the first frames, then every frame; dotted: phase changes)",
-             figure_tag(training_figure(history, names, truth), "loss, search step and parameters per evaluation"))]
+sections = [("The search (derivative-free, so no learning rate; dotted: phase changes)",
+             figure_tag(training_figure(history, names, truth),
+                        "every simulated material in order: a survey on the first frames, then simplex searches "
+                        "and a quadratic surface on every frame. Loss in pixels (mean distance between the "
+                        "simulated and recorded boundaries); the step panel, the search's distance from its best "
+                        "point so far in log units, stands where a gradient fit plots its learning rate"))]
 
 # observed, initial guess and learned, from the simulations of both parameter sets
 obs = load(smk.input.recordings, smk.input.matte, smk.input.cameras)
 problem = build_problem(exp, obs, smk.input.seed)
 seed = np.load(smk.input.seed)
-density, colour, spacing = seed["density"], seed["colour"], float(seed["spacing"])
+colour, spacing = material_colour(seed["colour"]), float(seed["spacing"])
 last = obs.frames - 1
 runs = {}
 with torch.no_grad():
@@ -57,16 +62,16 @@ for view in obs.views[:2]:
     for label in ("observed", "initial guess", "learned"):
         panels = []
         for k in picks:
-            image = observed_crop(view, k, crop) if label == "observed" else rendered_crop(
-                runs[label][k], density, colour, spacing, view, crop)
+            image = observed_crop(view, k, crop) if label == "observed" else surface_crop(
+                runs[label][k], spacing, view, crop, colour)
             panels.append((f"t = {obs.times[k]:.2f} s", image))
         rows.append((f"{view.name} {label}", panels))
 sections.append(("Observed, initial guess and learned", figure_tag(frames_figure(rows), "beginning, middle, end")))
 animations = []
 for view in obs.views:
     crop = focus_crop(view)
-    frames = [np.concatenate([observed_crop(view, k, crop), rendered_crop(runs["learned"][k], density, colour,
-                                                                          spacing, view, crop)], axis=1)
+    frames = [np.concatenate([observed_crop(view, k, crop), surface_crop(runs["learned"][k], spacing, view, crop,
+                                                                         colour)], axis=1)
               for k in range(obs.frames)]
     animations.append(gif_tag(frames, f"{view.name}: observed (left), learned (right)"))
 sections.append(("Every view, animated", "".join(animations)))
@@ -83,10 +88,9 @@ if truth:
     t = simulator_parameters({k: torch.tensor(float(v)) for k, v in truth.items()}, params["convention"],
                              density_value)
     true_hb = tuple(t[1:4].tolist())
-sections.append(("Flow curve", figure_tag(flow_curve_figure(hb["tau_y"], hb["K"], hb["n"], samples, true_hb),
-                                          "shear stress against shear rate; band: the curves of the "
-                                          "parameters drawn within their tolerance intervals (coverage not "
-                                          "calibrated)")))
+flow_curve = figure_tag(flow_curve_figure(hb["tau_y"], hb["K"], hb["n"], samples, true_hb),
+                        "the recovered flow curve: shear stress (Pa) against shear rate (1/s); band: the curves of "
+                        "the parameters drawn within their tolerance intervals (coverage not calibrated)")
 sections.append(("Prediction on a new shape", image_tag(Path(smk.input.novel).read_bytes(), "png",
                                                        f"{exp['novel']['mesh']} with the recovered material "
                                                        "(video: novel/bunny.mp4)")))
@@ -96,6 +100,6 @@ for path in smk.input.benchmarks:
         row = next(csv.DictReader(f, delimiter="\t"))
     runtimes.append((Path(path).stem, float(row["s"])))
 runtimes.append(("total", sum(t for _, t in runtimes)))
-write_text_atomic(smk.output.report, render(exp["name"], params, sections, exp, runtimes))
+write_text_atomic(smk.output.report, render(exp["name"], params, sections, exp, runtimes, flow_curve))
 log.info("report: %s (%s)", smk.output.report, ", ".join(f"{SYMBOLS.get(k, k)} {p['value']:.4g}"
                                                          for k, p in params["parameters"].items()))

@@ -108,11 +108,12 @@ def frames_figure(rows: list[tuple[str, list[tuple[str, np.ndarray]]]]):
     return fig
 
 
-def gif_tag(frames: list[np.ndarray], caption: str, fps: float = 6.0) -> str:
-    """An animated GIF (frames as float RGB in [0, 1]) inline."""
+def gif_tag(frames: list[np.ndarray], caption: str, fps: float = 6.0, min_height: int = 320) -> str:
+    """An animated GIF (frames as float RGB in [0, 1]) inline, enlarged to at least ``min_height`` pixels."""
+    factor = max(1, math.ceil(min_height / frames[0].shape[0]))
     buf = io.BytesIO()
-    imageio.mimwrite(buf, [(np.clip(f, 0, 1) * 255).astype(np.uint8) for f in frames], format="GIF",
-                     duration=1.0 / fps, loop=0)
+    imageio.mimwrite(buf, [np.kron((np.clip(f, 0, 1) * 255).astype(np.uint8), np.ones((factor, factor, 1), np.uint8))
+                           for f in frames], format="GIF", duration=1.0 / fps, loop=0)
     return image_tag(buf.getvalue(), "gif", caption)
 
 
@@ -124,45 +125,62 @@ def interval_text(entry: dict) -> str:
 
 
 def parameter_rows(params: dict) -> tuple[list[str], list[list[str]], list[str]]:
-    """The parameter table: truth where known, initial guess, recovered, interval, % error, determined."""
-    header = ["parameter", "truth", "initial guess", "recovered", "tolerance interval", "error", "determined"]
+    """The parameter table: initial guess, recovered, interval, determined; with the truth and the % error where the
+    truth is known (a virtual experiment)."""
+    known = any("truth" in p for p in params.values())
+    header = ["parameter", *(["truth"] if known else []), "initial guess", "recovered", "tolerance interval",
+              *(["error"] if known else []), "determined by the recording"]
     rows, classes = [], []
     for name, p in params.items():
         error, held = p.get("error"), p.get("held_at_initial_guess", False)
-        rows.append([SYMBOLS.get(name, name), f"{p['truth']:.4g}" if "truth" in p else "unknown",
-                     f"{p['initial']:.4g}", f"{p['value']:.4g}" + (" (held at the guess)" if held else ""),
-                     interval_text(p), "not recovered" if held else f"{error:+.1%}" if error is not None else "-",
+        truth = [f"{p['truth']:.4g}" if "truth" in p else "unknown"] if known else []
+        error_text = ["not recovered" if held else f"{error:+.1%}" if error is not None else "-"] if known else []
+        rows.append([SYMBOLS.get(name, name), *truth, f"{p['initial']:.4g}",
+                     f"{p['value']:.4g}" + (" (held at the guess)" if held else ""), interval_text(p), *error_text,
                      "yes" if p["determined"] else "no"])
         # a parameter held at its guess was not recovered, however near the truth the guess was
         classes.append("" if error is None or held else ("good" if abs(error) <= 0.1 else "bad"))
     return header, rows, classes
 
 
+UNITS = {"mu": "Pa", "lam": "Pa", "sigma_y": "Pa", "eta": "Pa s", "tau_y": "Pa", "K": "Pa s^n", "n": ""}
+
+
+def headline(params: dict) -> str:
+    """The result in a sentence: the law with its intervals, and what the recording does not determine."""
+    hb = params["parameters"]
+    law = ", ".join(f"{SYMBOLS.get(k, k)} = {hb[k]['value']:.3g}{' ' + UNITS[k] if UNITS[k] else ''} "
+                    f"{interval_text(hb[k])}" for k in hb if k not in ("mu", "lam"))
+    undetermined = [SYMBOLS.get(k, k) for k, p in hb.items() if not p["determined"]]
+    rest = (f" The recording does not determine {', '.join(undetermined)}: the loss barely changes along "
+            f"{'it' if len(undetermined) == 1 else 'them'}." if undetermined else
+            " The recording determines every parameter.")
+    return (f"<p class='headline'><b>Recovered law</b> (tolerance intervals in brackets): {html.escape(law)}; "
+            f"elastic constants μ = {hb['mu']['value']:.3g} Pa, λ = {hb['lam']['value']:.3g} Pa."
+            f"{html.escape(rest)}</p>")
+
+
 def render(name: str, params: dict, sections: list[tuple[str, str]], config: dict,
-           runtimes: list[tuple[str, float]]) -> str:
-    """The page: parameter table first, then each (heading, html) section, runtimes and the configuration."""
+           runtimes: list[tuple[str, float]], flow_curve: str = "") -> str:
+    """The page: the result in a sentence, its flow curve and the parameter table first, then each (heading, html)
+    section, the runtimes and the configuration (folded)."""
     header, rows, classes = parameter_rows(params["parameters"])
-    body = [f"<p>Convention: {html.escape(params['convention'])}. Initial velocity "
-            f"{np.round(params['initial_velocity'], 4).tolist()} m/s. Herschel-Bulkley: "
-            + ", ".join(f"{k} = {v:.4g}" for k, v in params["herschel_bulkley"].items()) + ".</p>",
-            table_tag(header, rows, classes)]
-    undetermined = [SYMBOLS.get(k, k) for k, p in params["parameters"].items() if not p["determined"]]
-    body.append(f"<p>Intervals: each parameter's range over the materials whose loss lies within "
-                f"{params['tolerance']:.0%} of the best fit's (the fit model's own error), from the surface fitted to "
-                "the loss around the estimate, trade-offs between parameters included, each end then walked out "
-                "on the loss itself along the surface's valley floor (the other parameters following); &lt; or "
-                "&gt; marks an end where that region goes on past the evaluations' reach.</p>")
-    if undetermined:
-        body.append("<p>Not determined by this recording: " + ", ".join(undetermined) + " (the interval spans more "
-                    "than a factor 4 or has an open end: the loss barely changes along it). Those whose initial guess "
-                    "lies inside their interval were held at it while the other parameters were fitted again.</p>")
+    body = [headline(params), flow_curve, table_tag(header, rows, classes),
+            f"<p>Tolerance interval: each parameter's range over the materials whose loss lies within "
+            f"{params['tolerance']:.0%} of the best fit's (the fit model's own error; coverage not calibrated), from "
+            "the surface fitted to the loss around the estimate, trade-offs between parameters included, each end "
+            "then walked out on the loss itself along the surface's valley floor; &lt; or &gt; marks an end where "
+            "that region goes on past the evaluations' reach. A parameter whose interval spans more than a factor 4 "
+            "or has an open end is not determined; those whose initial guess lies inside their interval were held "
+            f"at it while the others were fitted again. Convention: {html.escape(params['convention'])}; initial "
+            f"velocity {np.round(params['initial_velocity'], 4).tolist()} m/s.</p>"]
     for heading, content in sections:
         body.append(f"<h2>{html.escape(heading)}</h2>{content}")
     body.append("<h2>Stage runtimes</h2>" + table_tag(["stage", "seconds"],
                                                       [[s, f"{t:.1f}"] for s, t in runtimes]))
-    body.append("<h2>Configuration</h2><pre>" + html.escape(json.dumps(config, indent=2)) + "</pre>")
+    body.append("<details><summary>Configuration</summary><pre>" + html.escape(json.dumps(config, indent=2))
+                + "</pre></details>")
     return page(f"rheo: {name}", "".join(body))
-
 
 
 def focus_crop(view, frames: slice = slice(None), margin: int = 16) -> tuple[slice, slice]:
@@ -177,6 +195,20 @@ def focus_crop(view, frames: slice = slice(None), margin: int = 16) -> tuple[sli
 def observed_crop(view, frame: int, crop: tuple[slice, slice]) -> np.ndarray:
     cam = view.camera
     return view.images[frame].reshape(cam.height, cam.width, 3)[crop] / 255.0
+
+
+def material_colour(colours: np.ndarray) -> tuple[float, float, float]:
+    """The particles' median colour (RGB in [0, 1]), brightened for a lit surface."""
+    median = np.median(colours, axis=0)
+    return tuple((0.8 * median / max(float(median.max()), 1e-3)).tolist())
+
+
+def surface_crop(positions: np.ndarray, spacing: float, view, crop: tuple[slice, slice],
+                 colour: tuple[float, float, float]) -> np.ndarray:
+    """The particles drawn as a shaded surface over the cropped pixels of a view."""
+    from rheo.render.surface import surface_image
+
+    return surface_image(positions, spacing, view.camera, colour)[crop]
 
 
 def rendered_crop(positions: np.ndarray, density: np.ndarray, colour: np.ndarray, spacing: float, view,

@@ -14,7 +14,8 @@ import matplotlib.pyplot as plt
 STYLE = """body{font-family:system-ui,sans-serif;max-width:1100px;margin:2em auto;color:#222}
 table{border-collapse:collapse;margin:1em 0;font-size:14px}td,th{border:1px solid #ccc;padding:4px 6px;text-align:right}
 th{background:#f3f3f3}.bad{color:#b00}.good{color:#070}figure{display:inline-block;margin:0 1em 1em 0;max-width:100%}
-img{max-width:100%;height:auto}pre{white-space:pre-wrap;overflow-wrap:anywhere}"""
+img{max-width:100%;height:auto}pre{white-space:pre-wrap;overflow-wrap:anywhere}
+.headline{font-size:17px;line-height:1.45}summary{cursor:pointer;font-weight:600;margin:1em 0}"""
 
 
 def image_tag(data: bytes, mime: str, caption: str) -> str:

@@ -4,7 +4,7 @@ the training figure's best so far and phase lines."""
 import matplotlib.pyplot as plt
 import numpy as np
 
-from rheo.report.fit import parameter_rows, training_figure
+from rheo.report.fit import headline, parameter_rows, training_figure
 
 
 def entry(value: float, truth: float, held: bool = False) -> dict:
@@ -36,3 +36,15 @@ def test_the_best_so_far_starts_again_with_the_full_phase_and_side_by_side_searc
     changes = [line.get_xdata()[0] for line in loss_axes.get_lines()[2:]]
     assert changes == [2, 5]  # survey | starts | surface
     plt.close(fig)
+
+
+def test_a_real_recordings_table_has_no_truth_and_the_headline_says_what_is_not_determined():
+    fitted = {name: {**entry(value, 1.0), "determined": name != "K"} for name, value in
+              [("mu", 746.0), ("lam", 1205.0), ("tau_y", 36.42), ("K", 0.0575), ("n", 1.129)]}
+    for p in fitted.values():
+        del p["truth"], p["error"]
+    header, rows, _ = parameter_rows(fitted)
+    assert "truth" not in header and "error" not in header and len(rows[0]) == len(header)
+    text = headline({"parameters": fitted})
+    assert "τ_y = 36.4 Pa [18.2, 72.8]" in text and "K = 0.0575 Pa s^n" in text and "n = 1.13 [0.565, 2.26]" in text
+    assert "does not determine K" in text
