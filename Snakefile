@@ -18,6 +18,9 @@ except ConfigError as error:
 configfile: "config/config.yaml"
 
 
+report: "workflow/report/workflow.rst"
+
+
 try:
     validated(config, load_schema(Path(workflow.basedir) / "workflow/schemas/config.schema.yaml"),
               "config/config.yaml (with --config)")

@@ -3,6 +3,8 @@
 import csv
 import json
 import re
+import zipfile
+from pathlib import Path
 
 import imageio.v2 as imageio
 import pytest
@@ -38,5 +40,13 @@ def test_tiny_report_end_to_end(workflow):
     page = (root / "report.html").read_text()
     assert len(re.findall(r'src="data:image/(png|gif);base64,', page)) >= 6  # tables, plots, frames, animations
     assert "http://" not in page and "Stage runtimes" in page and "τ_y" in page
+    # Snakemake's own report collects the figures with their captions
+    collected = workflow.run("--report", "report.zip", "results/tiny/report.html")
+    assert collected.returncode == 0, collected.stderr[-3000:]
+    with zipfile.ZipFile(workflow.root / "report.zip") as archive:
+        names = {Path(n).name for n in archive.namelist()}
+        index = archive.read(next(n for n in archive.namelist() if n.endswith("report/report.html"))).decode()
+    assert {"synthesize.png", "cameras.png", "matte.png", "bunny.png", "report.html"} <= names
+    assert "the virtual lab" in index.lower() or "virtual lab" in index
     assert len(imageio.mimread(root / "novel/bunny.mp4")) == 4
     assert "seed (radiance)" in (workflow.root / "logs/tiny/seed.log").read_text()

@@ -6,7 +6,8 @@ rule calibrate:
         unpack(lambda w: calibration_inputs(w.experiment)),
     output:
         cameras="results/{experiment}/calibration/cameras.json",
-        figure="results/{experiment}/calibration/cameras.png",
+        figure=report("results/{experiment}/calibration/cameras.png", caption="../report/calibrate.rst",
+                      category="Calibration", subcategory="{experiment}"),
     log:
         "logs/{experiment}/calibrate.log",
     benchmark:

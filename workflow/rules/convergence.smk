@@ -14,7 +14,8 @@ rule virheometry_convergence:
                                     for f in p.iterdir() if f.suffix in {".xml", ".png"}),
         rheometer=lambda w: config["virheometry"]["rheometer"].get(w.material, []),
     output:
-        report="results/virheometry/{material}/convergence.html",
+        report=report("results/virheometry/{material}/convergence.html", caption="../report/convergence.rst",
+                      category="Real dam breaks", subcategory="{material}"),
         summary="results/virheometry/{material}/convergence.json",
     log:
         "logs/virheometry/{material}/convergence.log",

@@ -15,7 +15,8 @@ rule virheometry_diagnose:
     output:
         diagnosis="results/virheometry/{material}/diagnosis/diagnosis.json",
         maps="results/virheometry/{material}/diagnosis/maps.png",
-        report="results/virheometry/{material}/diagnosis/report.html",
+        report=report("results/virheometry/{material}/diagnosis/report.html", caption="../report/diagnosis.rst",
+                      category="Diagnosis", subcategory="{material}"),
     log:
         "logs/virheometry/{material}/diagnose.log",
     benchmark:
@@ -38,7 +39,8 @@ rule concealed_diagnose:
     output:
         diagnosis="results/concealed/{case}/diagnosis/diagnosis.json",
         maps="results/concealed/{case}/diagnosis/maps.png",
-        report="results/concealed/{case}/diagnosis/report.html",
+        report=report("results/concealed/{case}/diagnosis/report.html", caption="../report/diagnosis.rst",
+                      category="Diagnosis", subcategory="{case}"),
     log:
         "logs/concealed/{case}/diagnose.log",
     benchmark:

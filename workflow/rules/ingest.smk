@@ -6,7 +6,8 @@ rule ingest:
         lambda w: recording_sources(w.experiment),
     output:
         recordings=directory("results/{experiment}/recordings"),
-        figure="results/{experiment}/ingest.png",
+        figure=report("results/{experiment}/ingest.png", caption="../report/ingest.rst", category="Recording",
+                      subcategory="{experiment}"),
     wildcard_constraints:
         experiment=experiments_of_kind("real"),
     log:

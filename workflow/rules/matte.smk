@@ -7,7 +7,8 @@ rule matte:
     output:
         masks=directory("results/{experiment}/matte"),
         report="results/{experiment}/matte.json",
-        figure="results/{experiment}/matte.png",
+        figure=report("results/{experiment}/matte.png", caption="../report/matte.rst", category="Masks",
+                      subcategory="{experiment}"),
     log:
         "logs/{experiment}/matte.log",
     benchmark:

@@ -8,7 +8,8 @@ rule novel:
         recordings="results/{experiment}/recordings",
     output:
         video="results/{experiment}/novel/bunny.mp4",
-        strip="results/{experiment}/novel/bunny.png",
+        strip=report("results/{experiment}/novel/bunny.png", caption="../report/novel.rst", category="Prediction",
+                     subcategory="{experiment}"),
     log:
         "logs/{experiment}/novel.log",
     benchmark:

@@ -7,7 +7,8 @@ rule proxy:
     output:
         particles="results/{experiment}/proxy/particles.npz",
         summary="results/{experiment}/proxy/proxy.json",
-        figure="results/{experiment}/proxy/particles.png",
+        figure=report("results/{experiment}/proxy/particles.png", caption="../report/proxy.rst", category="Fit",
+                      subcategory="{experiment}"),
     log:
         "logs/{experiment}/proxy.log",
     benchmark:

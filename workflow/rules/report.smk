@@ -20,7 +20,8 @@ rule report:
         novel="results/{experiment}/novel/bunny.png",
         benchmarks=lambda w: report_benchmarks(w.experiment),
     output:
-        report="results/{experiment}/report.html",
+        report=report("results/{experiment}/report.html", caption="../report/experiment_report.rst",
+                      category="Results", subcategory="{experiment}"),
     log:
         "logs/{experiment}/report.log",
     benchmark:

@@ -11,7 +11,8 @@ rule seed:
     output:
         particles="results/{experiment}/seed/particles.npz",
         summary="results/{experiment}/seed/seed.json",
-        figure="results/{experiment}/seed/seed.png",
+        figure=report("results/{experiment}/seed/seed.png", caption="../report/seed.rst", category="Fit",
+                      subcategory="{experiment}"),
     log:
         "logs/{experiment}/seed.log",
     benchmark:

@@ -6,7 +6,8 @@ rule synthesize:
     output:
         recordings=directory("results/{experiment}/recordings"),
         truth="results/{experiment}/truth.json",
-        figure="results/{experiment}/synthesize.png",
+        figure=report("results/{experiment}/synthesize.png", caption="../report/synthesize.rst", category="Recording",
+                      subcategory="{experiment}"),
     wildcard_constraints:
         experiment=experiments_of_kind("virtual"),
     log:

@@ -16,7 +16,8 @@ rule virheometry_import:
     output:
         setup="results/virheometry/setups/{setup}/setup.json",
         masks="results/virheometry/setups/{setup}/masks.npz",
-        figure="results/virheometry/setups/{setup}/camera_check.png",
+        figure=report("results/virheometry/setups/{setup}/camera_check.png", caption="../report/camera_check.rst",
+                      category="Real dam breaks", subcategory="camera checks"),
     log:
         "logs/virheometry/setups/{setup}/import.log",
     benchmark:
@@ -93,7 +94,8 @@ rule virheometry_report:
                                  k=[s.rsplit("_", 1)[1] for s in virheometry_setups(w.material)])
                           if w.material in config["virheometry"]["single_setup_fits"] else []),
     output:
-        "results/virheometry/{material}/report.html",
+        report("results/virheometry/{material}/report.html", caption="../report/virheometry_report.rst",
+               category="Real dam breaks", subcategory="{material}"),
     log:
         "logs/virheometry/{material}/report.log",
     wildcard_constraints:
@@ -113,7 +115,7 @@ rule virheometry_summary:
         params=expand("results/virheometry/{material}/fit/params.json", material=virheometry_materials()),
         reports=expand("results/virheometry/{material}/report.html", material=virheometry_materials()),
     output:
-        "results/virheometry/summary.html",
+        report("results/virheometry/summary.html", caption="../report/summary.rst", category="Real dam breaks"),
     log:
         "logs/virheometry/summary.log",
     params:
