@@ -6,6 +6,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 from scipy.ndimage import gaussian_filter
+from scipy.special import ndtri
 from skimage.measure import marching_cubes
 
 from rheo.vision.cameras import Camera
@@ -14,9 +15,11 @@ MATERIAL_COLOUR = (0.72, 0.22, 0.14)  # a ketchup red, where the recording gives
 SUBPIXEL_BITS = 4
 
 
-def particle_surface(positions: np.ndarray, spacing: float, smoothing: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+def particle_surface(positions: np.ndarray, spacing: float, smoothing: float = 1.5,
+                     level: float = 0.35) -> tuple[np.ndarray, np.ndarray]:
     """Vertices (V, 3) and triangles (F, 3) of the surface around particles ``spacing`` apart: their count per
-    voxel of side ``spacing``, smoothed by a Gaussian of ``smoothing`` voxels, at half the interior's density."""
+    voxel of side ``spacing``, smoothed by a Gaussian of ``smoothing`` voxels, where it is ``level`` times the
+    interior's (low enough that a sheet two particles thick stays whole), moved back onto the boundary."""
     margin = 3 * (smoothing + 1) * spacing
     low = positions.min(axis=0) - margin
     shape = np.ceil((positions.max(axis=0) + margin - low) / spacing).astype(int) + 1
@@ -24,10 +27,12 @@ def particle_surface(positions: np.ndarray, spacing: float, smoothing: float = 1
     index = np.clip(np.round((positions - low) / spacing).astype(int), 0, shape - 1)
     np.add.at(counts, tuple(index.T), 1.0)
     density = gaussian_filter(counts, smoothing)
-    if density.max() <= 0.5:
+    if density.max() <= level:
         return np.zeros((0, 3)), np.zeros((0, 3), dtype=int)
-    vertices, faces, _, _ = marching_cubes(density, level=0.5, spacing=(spacing,) * 3)
-    return vertices + low, faces
+    vertices, faces, normals, _ = marching_cubes(density, level=level, spacing=(spacing,) * 3)
+    # below half density the level set of a smoothed flat boundary lies this far outside it: moved back
+    outside = smoothing * spacing * float(ndtri(1.0 - level))
+    return vertices + low - outside * normals, faces
 
 
 def shade(vertices: np.ndarray, faces: np.ndarray, camera: Camera, colour=MATERIAL_COLOUR,

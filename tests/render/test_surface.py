@@ -28,15 +28,17 @@ def camera() -> Camera:
 
 def test_a_ball_of_particles_is_a_disc_of_the_size_the_camera_sees():
     spacing = 0.01
-    vertices, faces = particle_surface(ball(spacing), spacing)
-    # the level set lies within a particle spacing of the ball's surface
-    assert abs(np.median(np.linalg.norm(vertices, axis=1)) - RADIUS) < spacing
+    particles = ball(spacing)
+    radius = (3 * len(particles) * spacing**3 / (4 * math.pi)) ** (1 / 3)  # of the volume the particles stand for
+    vertices, faces = particle_surface(particles, spacing)
+    # the level set lies within half a particle spacing of that ball's surface
+    assert abs(np.median(np.linalg.norm(vertices, axis=1)) - radius) < spacing / 2
     image = shade(vertices, faces, camera())
     drawn = np.abs(image - 1.0).max(axis=-1) > 0.5
     # a sphere seen from distance D: a disc of radius f R / sqrt(D^2 - R^2)
-    expected = math.pi * (FOCAL * RADIUS / math.sqrt(DISTANCE**2 - RADIUS**2)) ** 2
-    assert abs(drawn.sum() / expected - 1) < 0.08
-    centre, rim = image[160, 160], image[160, 160 + int(0.9 * FOCAL * RADIUS)]
+    expected = math.pi * (FOCAL * radius / math.sqrt(DISTANCE**2 - radius**2)) ** 2
+    assert abs(drawn.sum() / expected - 1) < 0.05
+    centre, rim = image[160, 160], image[160, 160 + int(0.9 * FOCAL * radius)]
     assert centre.sum() > rim.sum()  # the face towards the camera is lit, the limb darker
     rows, cols = framing([image])
     assert drawn[rows, cols].sum() == drawn.sum() and (rows.stop - rows.start) % 2 == 0
