@@ -3,8 +3,8 @@ lacks (none, one, two, or one that no candidate models), and neither the fit nor
 
 The lab simulates with the fit's simulator on a finer grid, with its own time step and particles (more per cell) and
 its own account of each effect (``concealed_truth``, apart from the diagnosis' candidates), and draws the material with
-the virtual lab's renderer (its smoothed surface, supersampled); it still shares the fit's simulator, so it is not
-independent of the fit. The recording takes the form of imported ViRheometry setups (setup.json and
+the virtual lab's renderer (splats of another radius, supersampled); it still shares the fit's simulator, so it is
+not independent of the fit. The recording takes the form of imported ViRheometry setups (setup.json and
 masks.npz: silhouettes that include the container), one per channel of the scene, as the real recordings come in
 pairs (a low and a tall column): one geometry alone lets a Bingham law mimic shear thinning. The first frame comes
 ``release_s`` after the release (one frame interval unless the case says), which the fit searches for.

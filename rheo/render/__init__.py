@@ -1,1 +1,1 @@
-"""Renderers: the virtual lab's surface renderer, a different model from the fit's (the lab shares its simulator)."""
+"""Renderers: the virtual lab's splat renderer, a different model from the fit's (the lab shares its simulator)."""

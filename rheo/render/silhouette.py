@@ -1,4 +1,4 @@
-"""Silhouettes of particle sets: every particle a disc in its cell, rasterised with supersampling.
+"""Silhouettes of particle sets: every particle a disc of the lab's splat radius, rasterised with supersampling.
 
 Fast (a few milliseconds per image, no Python loop over particles) and deterministic, for comparisons of whole
 frames with masks, where the differentiable renderer's random ray batches would be both slow and noisy."""
@@ -10,7 +10,8 @@ import numpy as np
 
 from rheo.vision.cameras import Camera
 
-# disc radius in particle spacings: the circle inscribed in a particle's cell (docs/settings.md)
+# disc radius in particle spacings: the circle inscribed in a particle's cell. The proxy's particles then draw the
+# virtual cup's matted masks to 0.1 % in area (0.6, the lab's splat radius: +1.4 %; 0.4: -1.9 %)
 DISC = 0.5
 SUPERSAMPLE = 2  # sub-pixels per pixel along each axis
 

@@ -1,6 +1,5 @@
-"""The material drawn as a surface: the particles' density smoothed on a grid, its level set as a triangle mesh
-(marching cubes), and the mesh filled far to near (in the reports with plain light, in the virtual lab with its
-scene's)."""
+"""The material drawn as a shaded surface, for people to look at: the particles' density smoothed on a grid, its
+level set as a triangle mesh (marching cubes), and the mesh filled far to near with diffuse light."""
 
 from __future__ import annotations
 
@@ -17,11 +16,10 @@ SUBPIXEL_BITS = 4
 
 
 def particle_surface(positions: np.ndarray, spacing: float, smoothing: float = 1.5,
-                     level: float = 0.35) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Vertices (V, 3), triangles (F, 3) and outward unit vertex normals (V, 3) of the surface around particles
-    ``spacing`` apart: their count per voxel of side ``spacing``, smoothed by a Gaussian of ``smoothing`` voxels,
-    where it is ``level`` times the interior's (low enough that a sheet two particles thick stays whole), moved back
-    onto the boundary."""
+                     level: float = 0.35) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (V, 3) and triangles (F, 3) of the surface around particles ``spacing`` apart: their count per
+    voxel of side ``spacing``, smoothed by a Gaussian of ``smoothing`` voxels, where it is ``level`` times the
+    interior's (low enough that a sheet two particles thick stays whole), moved back onto the boundary."""
     margin = 3 * (smoothing + 1) * spacing
     low = positions.min(axis=0) - margin
     shape = np.ceil((positions.max(axis=0) + margin - low) / spacing).astype(int) + 1
@@ -30,36 +28,22 @@ def particle_surface(positions: np.ndarray, spacing: float, smoothing: float = 1
     np.add.at(counts, tuple(index.T), 1.0)
     density = gaussian_filter(counts, smoothing)
     if density.max() <= level:
-        return np.zeros((0, 3)), np.zeros((0, 3), dtype=int), np.zeros((0, 3))
+        return np.zeros((0, 3)), np.zeros((0, 3), dtype=int)
     vertices, faces, normals, _ = marching_cubes(density, level=level, spacing=(spacing,) * 3)
     # below half density the level set of a smoothed flat boundary lies this far outside it: moved back
     outside = smoothing * spacing * float(ndtri(1.0 - level))
-    return vertices + low - outside * normals, faces, normals
-
-
-def draw_faces(image: np.ndarray, vertices: np.ndarray, faces: np.ndarray, colours: np.ndarray, camera: Camera,
-               mask: np.ndarray | None = None, supersample: int = 1) -> None:
-    """Fill each triangle of the mesh seen by ``camera`` with its colour (F, 3) into ``image`` (float32, ``supersample``
-    times the camera's resolution), far to near so that the nearest shows, and into ``mask`` (uint8) as 1."""
-    if not len(faces):
-        return
-    uv, depth = camera.project(vertices)
-    uv = uv * supersample + (supersample - 1) / 2  # pixel centres at integers, as in OpenCV
-    face_depth = depth[faces].mean(axis=1)
-    visible = (depth[faces] > 0).all(axis=1) & np.isfinite(uv[faces]).all(axis=(1, 2))
-    points = np.round(uv[faces] * 2**SUBPIXEL_BITS).astype(np.int32)
-    for f in np.flatnonzero(visible)[np.argsort(-face_depth[visible])]:
-        cv2.fillConvexPoly(image, points[f], colours[f].tolist(), lineType=cv2.LINE_8, shift=SUBPIXEL_BITS)
-        if mask is not None:
-            cv2.fillConvexPoly(mask, points[f], 1, lineType=cv2.LINE_8, shift=SUBPIXEL_BITS)
+    return vertices + low - outside * normals, faces
 
 
 def shade(vertices: np.ndarray, faces: np.ndarray, camera: Camera, colour=MATERIAL_COLOUR,
           background: float = 1.0, supersample: int = 2) -> np.ndarray:
     """The mesh seen by ``camera``: RGB in [0, 1] on a plain background, lit from the camera and from above,
     drawn at ``supersample`` times the resolution and averaged down."""
-    image = np.full((camera.height * supersample, camera.width * supersample, 3), background, dtype=np.float32)
+    height, width = camera.height * supersample, camera.width * supersample
+    image = np.full((height, width, 3), background, dtype=np.float32)
     if len(faces):
+        uv, depth = camera.project(vertices)
+        uv = uv * supersample + (supersample - 1) / 2  # pixel centres at integers, as in OpenCV
         corners = vertices[faces]
         normals = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
@@ -67,15 +51,18 @@ def shade(vertices: np.ndarray, faces: np.ndarray, camera: Camera, colour=MATERI
         to_camera /= np.linalg.norm(to_camera, axis=1, keepdims=True)
         above = np.array([0.3, 1.0, 0.2]) / np.linalg.norm([0.3, 1.0, 0.2])
         light = 0.3 + 0.45 * np.abs((normals * to_camera).sum(axis=1)) + 0.25 * np.abs(normals @ above)
-        colours = np.clip(light[:, None] * np.asarray(colour, dtype=np.float32), 0.0, 1.0)
-        draw_faces(image, vertices, faces, colours, camera, supersample=supersample)
+        shades = np.clip(light[:, None] * np.asarray(colour, dtype=np.float32), 0.0, 1.0)
+        face_depth = depth[faces].mean(axis=1)
+        visible = (depth[faces] > 0).all(axis=1) & np.isfinite(uv[faces]).all(axis=(1, 2))
+        points = np.round(uv[faces] * 2**SUBPIXEL_BITS).astype(np.int32)
+        for f in np.flatnonzero(visible)[np.argsort(-face_depth[visible])]:  # far to near
+            cv2.fillConvexPoly(image, points[f], shades[f].tolist(), lineType=cv2.LINE_8, shift=SUBPIXEL_BITS)
     return cv2.resize(image, (camera.width, camera.height), interpolation=cv2.INTER_AREA)
 
 
 def surface_image(positions: np.ndarray, spacing: float, camera: Camera, colour=MATERIAL_COLOUR) -> np.ndarray:
     """Particles drawn as their shaded surface by ``camera`` (RGB in [0, 1] on white)."""
-    vertices, faces, _ = particle_surface(positions, spacing)
-    return shade(vertices, faces, camera, colour)
+    return shade(*particle_surface(positions, spacing), camera, colour)
 
 
 def framing(images: list[np.ndarray], background: float = 1.0, margin: int = 12) -> tuple[slice, slice]:
