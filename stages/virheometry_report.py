@@ -37,7 +37,27 @@ def spread_text(fit: dict) -> str:
 
 band = params["shear_rate_band_per_s"]
 reached = "none: nothing moved" if band is None else f"{band[0]:.3g}-{band[1]:.3g} 1/s"
-sections = [("Recovered law", table_tag(["parameter", "value", "tolerance interval", "determined"], law_rows(params))
+curves = [read_flow_curve(p) for p in smk.input.rheometer]
+law = tuple(params[k]["value"] for k in KEYS)
+tolerated_laws = np.array(params["within_tolerance"]["laws"])
+comparison = ""
+if curves and band is not None:
+    comparison, errors = rheometer_comparison({"recovered": law}, curves, band)
+    for name, error in errors.items():
+        log.info("%s: RMS log10 error %.3f over %.3g-%.3g 1/s", name, error["recovered"], *band)
+flow = flow_figure(law, tolerated_laws, band, curves, envelope=True)
+flow.savefig(smk.output.flow_curve, dpi=110, bbox_inches="tight")
+undetermined = [label for key, label in KEYS.items() if not params[key]["determined"]]
+headline = ("<p class='headline'><b>Recovered law</b> (tolerance intervals in brackets): "
+            + ", ".join(f"{label} = {params[key]['value']:.3g} {interval_text(params[key])}"
+                        for key, label in KEYS.items())
+            + (f". The recordings do not determine {', '.join(undetermined)}." if undetermined else
+               ". The recordings determine all three.") + "</p>")
+sections = [("Flow curve", figure_tag(flow, "recovered law, shear stress (Pa) against shear rate (1/s); band: the "
+                                            "curves of every evaluated material within the tolerance of the best"
+                                            + ("; the rheometer's curves where there are some" if curves else ""))
+             + comparison),
+            ("Recovered law", table_tag(["parameter", "value", "tolerance interval", "determined"], law_rows(params))
              + f"<p>Each interval spans the region where a quadratic surface fitted to the losses around the "
              f"estimate stays within the tolerance ({params['tolerance']:.0%}) of its lowest, the parameters' "
              f"trade-offs included, and the evaluated materials within the tolerance of the best; an end marked "
@@ -50,17 +70,6 @@ sections = [("Recovered law", table_tag(["parameter", "value", "tolerance interv
                                    f"{np.mean(s['silhouette_iou']):.3f}", f"{np.mean(s['outflow_iou']):.3f}"]
                                   for name, s in params["setups"].items()])
              + image_tag(Path(smk.input.frames).read_bytes(), "png", "recorded and simulated silhouettes"))]
-curves = [read_flow_curve(p) for p in smk.input.rheometer]
-law = tuple(params[k]["value"] for k in KEYS)
-tolerated_laws = np.array(params["within_tolerance"]["laws"])
-comparison = ""
-if curves and band is not None:
-    comparison, errors = rheometer_comparison({"recovered": law}, curves, band)
-    for name, error in errors.items():
-        log.info("%s: RMS log10 error %.3f over %.3g-%.3g 1/s", name, error["recovered"], *band)
-sections.append(("Flow curve", figure_tag(flow_figure(law, tolerated_laws, band, curves, envelope=True),
-                                          "recovered law; band: the curves of every evaluated material within the "
-                                          "tolerance of the best") + comparison))
 if smk.input.single:
     header = ["fit", *[f"{label} tolerance interval (width, factor)" for label in KEYS.values()],
               "evaluated materials within the tolerance"]
@@ -73,5 +82,5 @@ if smk.input.single:
     sections.append(("One setup against both", table_tag(header, rows)))
 sections.append(("Camera checks", "".join(image_tag(Path(p).read_bytes(), "png", Path(p).parent.name)
                                           for p in smk.input.camera_checks)))
-body = "".join(f"<h2>{title}</h2>{content}" for title, content in sections)
-write_text_atomic(smk.output[0], page(f"{material}: Herschel-Bulkley law from dam breaks", body))
+body = headline + "".join(f"<h2>{title}</h2>{content}" for title, content in sections)
+write_text_atomic(smk.output.report, page(f"{material}: Herschel-Bulkley law from dam breaks", body))

@@ -1,5 +1,6 @@
-"""The real dam-break rules in a scratch copy of the workflow: one setup imported, one setup fitted with a small
-search, the summary's plan over all twelve materials, and its table from twelve given fits."""
+"""The real dam-break rules in a scratch copy of the workflow: one setup imported, one setup and a material fitted
+with a small search and the material's page written, the summary's plan over all twelve materials, and its table from
+twelve given fits."""
 
 import csv
 import html
@@ -11,8 +12,13 @@ def test_a_setup_is_imported_and_fitted(workflow):
         "virheometry:\n  simulation: {cells_per_height: 4, cells_across: 4, max_offset: 0.05}\n"
         "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1, flow_index_searches: [1.0],\n"
         "        flow_index_evaluations: 2, stress_evaluations: 2}\n")
-    run = workflow.run("results/virheometry/Carbonara/fit_setup2/params.json", "--configfile", "quick.yaml")
+    run = workflow.run("results/virheometry/Carbonara/fit_setup2/params.json",
+                       "results/virheometry/Carbonara/report.html", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
+    # the material's page leads with its law and the flow curve, which is also a figure of its own
+    page = (workflow.root / "results/virheometry/Carbonara/report.html").read_text()
+    assert page.index("Recovered law") < page.index("<h2>Flow curve") < page.index("<h2>Setups")
+    assert (workflow.root / "results/virheometry/Carbonara/flow_curve.png").stat().st_size > 10_000
     setup = json.loads((workflow.root / "results/virheometry/setups/ref_Carbonara_2.0_2.5_2/setup.json").read_text())
     assert setup["units"].startswith("SI") and setup["height"] == 0.02 and setup["frames"] == 8
     assert setup["camera_check"]["cuboid_on_silhouette"] > 0.95

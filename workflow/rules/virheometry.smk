@@ -94,8 +94,9 @@ rule virheometry_report:
                                  k=[s.rsplit("_", 1)[1] for s in virheometry_setups(w.material)])
                           if w.material in config["virheometry"]["single_setup_fits"] else []),
     output:
-        report("results/virheometry/{material}/report.html", caption="../report/virheometry_report.rst",
-               category="Real dam breaks", subcategory="{material}"),
+        report=report("results/virheometry/{material}/report.html", caption="../report/virheometry_report.rst",
+                      category="Real dam breaks", subcategory="{material}"),
+        flow_curve="results/virheometry/{material}/flow_curve.png",
     log:
         "logs/virheometry/{material}/report.log",
     wildcard_constraints:
