@@ -8,6 +8,9 @@ rule calibrate:
         cameras="results/{experiment}/calibration/cameras.json",
         figure=report("results/{experiment}/calibration/cameras.png", caption="../report/calibrate.rst",
                       category="Calibration", subcategory="{experiment}"),
+    resources:
+        mem_mb=1000,
+        runtime=10,
     log:
         "logs/{experiment}/calibrate.log",
     benchmark:

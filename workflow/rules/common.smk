@@ -14,6 +14,22 @@ wildcard_constraints:
     experiment=r"(?!(?:thesis|virheometry)/)[A-Za-z0-9_]+",
 
 
+def job_threads():
+    """Worker processes of the rules that run simulations side by side: config's threads_per_job, else every core
+    Snakemake is given (--cores; on a cluster without --cores, two, unless the profile sets them)."""
+    if config["threads_per_job"]:
+        return config["threads_per_job"]
+    try:
+        return max(1, int(workflow.cores or 1))
+    except WorkflowError:  # a cluster executor and no --cores
+        return 2
+
+
+def worker_memory(base_mb, per_worker_mb):
+    """A rule's memory (MB): its own and its workers', from the benchmarks (docs/performance.md)."""
+    return lambda wildcards, threads: base_mb + per_worker_mb * threads
+
+
 def collapse_config():
     return config["thesis"]["collapse"]
 

@@ -46,6 +46,9 @@ rule concealed_synthesize:
         setups=concealed_recordings("setup.json"),
         masks=concealed_recordings("masks.npz"),
         truth="results/concealed/{case}/truth.json",
+    resources:
+        mem_mb=2000,
+        runtime=30,
     log:
         "logs/concealed/{case}/synthesize.log",
     benchmark:
@@ -70,13 +73,16 @@ rule concealed_fit:
         params="results/concealed/{case}/fit/params.json",
         history="results/concealed/{case}/fit/history.csv",
         frames="results/concealed/{case}/fit/frames.png",
+    resources:
+        mem_mb=worker_memory(800, 600),
+        runtime=90,
     log:
         "logs/concealed/{case}/fit.log",
     benchmark:
         "benchmarks/concealed/{case}/fit.tsv"
     wildcard_constraints:
         case=r"[A-Za-z0-9_.]+",
-    threads: 2
+    threads: job_threads()
     params:
         simulation=virheometry_held_out_simulation(),
         settings=concealed_fit_settings(),
@@ -91,6 +97,9 @@ rule concealed_oracle:
         masks=concealed_recordings("masks.npz"),
     output:
         "results/concealed/{case}/oracle.json",
+    resources:
+        mem_mb=worker_memory(800, 600),
+        runtime=30,
     log:
         "logs/concealed/{case}/oracle.log",
     wildcard_constraints:
@@ -110,6 +119,9 @@ rule concealed_summary:
     output:
         html="results/concealed/summary.html",
         scores="results/concealed/summary.json",
+    resources:
+        mem_mb=1000,
+        runtime=5,
     log:
         "logs/concealed/summary.log",
     params:

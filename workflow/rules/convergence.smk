@@ -17,13 +17,16 @@ rule virheometry_convergence:
         report=report("results/virheometry/{material}/convergence.html", caption="../report/convergence.rst",
                       category="Real dam breaks", subcategory="{material}"),
         summary="results/virheometry/{material}/convergence.json",
+    resources:
+        mem_mb=worker_memory(800, 600),
+        runtime=240,
     log:
         "logs/virheometry/{material}/convergence.log",
     benchmark:
         "benchmarks/virheometry/{material}/convergence.tsv"
     wildcard_constraints:
         material=r"[A-Za-z0-9]+",
-    threads: 2
+    threads: job_threads()
     params:
         folders=lambda w: [str(p) for p in setup_folders(config["virheometry"]["data"], w.material)],
         laws=lambda w: convergence_laws(w.material),

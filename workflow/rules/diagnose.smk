@@ -17,13 +17,16 @@ rule virheometry_diagnose:
         maps="results/virheometry/{material}/diagnosis/maps.png",
         report=report("results/virheometry/{material}/diagnosis/report.html", caption="../report/diagnosis.rst",
                       category="Diagnosis", subcategory="{material}"),
+    resources:
+        mem_mb=worker_memory(800, 600),
+        runtime=300,
     log:
         "logs/virheometry/{material}/diagnose.log",
     benchmark:
         "benchmarks/virheometry/{material}/diagnose.tsv"
     wildcard_constraints:
         material=r"[A-Za-z0-9]+",
-    threads: 2
+    threads: job_threads()
     params:
         **diagnose_params(virheometry_bingham_settings(), virheometry_held_out_simulation()),
         title=lambda w: f"{w.material}: what the Bingham model leaves out",
@@ -41,13 +44,16 @@ rule concealed_diagnose:
         maps="results/concealed/{case}/diagnosis/maps.png",
         report=report("results/concealed/{case}/diagnosis/report.html", caption="../report/diagnosis.rst",
                       category="Diagnosis", subcategory="{case}"),
+    resources:
+        mem_mb=worker_memory(800, 600),
+        runtime=300,
     log:
         "logs/concealed/{case}/diagnose.log",
     benchmark:
         "benchmarks/concealed/{case}/diagnose.tsv"
     wildcard_constraints:
         case=r"[A-Za-z0-9_.]+",
-    threads: 2
+    threads: job_threads()
     params:
         **diagnose_params(concealed_fit_settings(), virheometry_held_out_simulation()),
         title=lambda w: f"concealed case {w.case}: what the Bingham model leaves out",

@@ -11,11 +11,14 @@ rule fit_warmup:
         velocity="results/{experiment}/velocity/velocity.json",
     output:
         warmup="results/{experiment}/fit/warmup.json",
+    resources:
+        mem_mb=worker_memory(800, 500),
+        runtime=60,
     log:
         "logs/{experiment}/fit_warmup.log",
     benchmark:
         "benchmarks/{experiment}/fit_warmup.tsv"
-    threads: 2
+    threads: job_threads()
     params:
         experiment=lambda w: experiment(w.experiment),
         phase="warmup",
@@ -35,11 +38,14 @@ rule fit:
     output:
         params="results/{experiment}/fit/params.json",
         history="results/{experiment}/fit/history.csv",
+    resources:
+        mem_mb=worker_memory(800, 500),
+        runtime=120,
     log:
         "logs/{experiment}/fit.log",
     benchmark:
         "benchmarks/{experiment}/fit.tsv"
-    threads: 2
+    threads: job_threads()
     params:
         experiment=lambda w: experiment(w.experiment),
         phase="full",

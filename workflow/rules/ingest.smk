@@ -10,6 +10,9 @@ rule ingest:
                       subcategory="{experiment}"),
     wildcard_constraints:
         experiment=experiments_of_kind("real"),
+    resources:
+        mem_mb=1000,
+        runtime=10,
     log:
         "logs/{experiment}/ingest.log",
     benchmark:

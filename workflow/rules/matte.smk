@@ -9,6 +9,9 @@ rule matte:
         report="results/{experiment}/matte.json",
         figure=report("results/{experiment}/matte.png", caption="../report/matte.rst", category="Masks",
                       subcategory="{experiment}"),
+    resources:
+        mem_mb=1000,
+        runtime=10,
     log:
         "logs/{experiment}/matte.log",
     benchmark:

@@ -10,6 +10,9 @@ rule novel:
         video="results/{experiment}/novel/bunny.mp4",
         strip=report("results/{experiment}/novel/bunny.png", caption="../report/novel.rst", category="Prediction",
                      subcategory="{experiment}"),
+    resources:
+        mem_mb=1500,
+        runtime=15,
     log:
         "logs/{experiment}/novel.log",
     benchmark:

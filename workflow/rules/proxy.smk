@@ -9,6 +9,9 @@ rule proxy:
         summary="results/{experiment}/proxy/proxy.json",
         figure=report("results/{experiment}/proxy/particles.png", caption="../report/proxy.rst", category="Fit",
                       subcategory="{experiment}"),
+    resources:
+        mem_mb=1000,
+        runtime=5,
     log:
         "logs/{experiment}/proxy.log",
     benchmark:

@@ -22,6 +22,9 @@ rule report:
     output:
         report=report("results/{experiment}/report.html", caption="../report/experiment_report.rst",
                       category="Results", subcategory="{experiment}"),
+    resources:
+        mem_mb=1500,
+        runtime=15,
     log:
         "logs/{experiment}/report.log",
     benchmark:

@@ -13,6 +13,9 @@ rule seed:
         summary="results/{experiment}/seed/seed.json",
         figure=report("results/{experiment}/seed/seed.png", caption="../report/seed.rst", category="Fit",
                       subcategory="{experiment}"),
+    resources:
+        mem_mb=2000,
+        runtime=30,
     log:
         "logs/{experiment}/seed.log",
     benchmark:

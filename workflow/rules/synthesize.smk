@@ -10,11 +10,14 @@ rule synthesize:
                       subcategory="{experiment}"),
     wildcard_constraints:
         experiment=experiments_of_kind("virtual"),
+    resources:
+        mem_mb=worker_memory(800, 500),
+        runtime=30,
     log:
         "logs/{experiment}/synthesize.log",
     benchmark:
         "benchmarks/{experiment}/synthesize.tsv"
-    threads: 2
+    threads: job_threads()
     params:
         experiment=lambda w: virtual_experiment(w.experiment),
     script:

@@ -4,6 +4,9 @@
 rule thesis_calibration_run:
     output:
         "results/thesis/calibration/mu{mu}_lam{lam}/sigma_y{sigma_y}.json",
+    resources:
+        mem_mb=1500,
+        runtime=30,
     log:
         "logs/thesis/calibration/mu{mu}_lam{lam}/sigma_y{sigma_y}.log",
     benchmark:
@@ -26,6 +29,9 @@ rule thesis_calibrate:
         ],
     output:
         "results/thesis/calibration.json",
+    resources:
+        mem_mb=1000,
+        runtime=5,
     log:
         "logs/thesis/calibrate.log",
     params:
@@ -39,6 +45,9 @@ rule thesis_predict:
         calibration="results/thesis/calibration.json",
     output:
         "results/thesis/prediction/ratio{ratio}.json",
+    resources:
+        mem_mb=1500,
+        runtime=30,
     log:
         "logs/thesis/prediction/ratio{ratio}.log",
     benchmark:
@@ -59,6 +68,9 @@ rule thesis_collapse_report:
     output:
         csv="results/thesis/collapse.csv",
         html="results/thesis/collapse.html",
+    resources:
+        mem_mb=1000,
+        runtime=5,
     log:
         "logs/thesis/collapse_report.log",
     params:
@@ -78,6 +90,9 @@ rule thesis_report:
         params=[f"results/{t['experiment']}/fit/params.json" for t in recovery_tables().values()],
     output:
         "results/thesis/report.html",
+    resources:
+        mem_mb=1000,
+        runtime=5,
     log:
         "logs/thesis/report.log",
     params:

@@ -9,6 +9,9 @@ rule velocity:
         seed="results/{experiment}/seed/particles.npz",
     output:
         velocity="results/{experiment}/velocity/velocity.json",
+    resources:
+        mem_mb=3000,
+        runtime=30,
     log:
         "logs/{experiment}/velocity.log",
     benchmark:

@@ -18,6 +18,9 @@ rule virheometry_import:
         masks="results/virheometry/setups/{setup}/masks.npz",
         figure=report("results/virheometry/setups/{setup}/camera_check.png", caption="../report/camera_check.rst",
                       category="Real dam breaks", subcategory="camera checks"),
+    resources:
+        mem_mb=1000,
+        runtime=5,
     log:
         "logs/virheometry/setups/{setup}/import.log",
     benchmark:
@@ -67,6 +70,9 @@ rule virheometry_fit:
         params="results/virheometry/{material}/{fit}/params.json",
         history="results/virheometry/{material}/{fit}/history.csv",
         frames="results/virheometry/{material}/{fit}/frames.png",
+    resources:
+        mem_mb=worker_memory(800, 700),
+        runtime=90,
     log:
         "logs/virheometry/{material}/{fit}.log",
     benchmark:
@@ -74,7 +80,7 @@ rule virheometry_fit:
     wildcard_constraints:
         material=r"[A-Za-z0-9]+",
         fit=r"fit|fit_bingham|fit_setup[0-9]+",
-    threads: 2
+    threads: job_threads()
     params:
         simulation=lambda w: virheometry_held_out_simulation() if w.fit == "fit_bingham"
         else config["virheometry"]["simulation"],
@@ -97,6 +103,9 @@ rule virheometry_report:
         report=report("results/virheometry/{material}/report.html", caption="../report/virheometry_report.rst",
                       category="Real dam breaks", subcategory="{material}"),
         flow_curve="results/virheometry/{material}/flow_curve.png",
+    resources:
+        mem_mb=1000,
+        runtime=5,
     log:
         "logs/virheometry/{material}/report.log",
     wildcard_constraints:
@@ -117,6 +126,9 @@ rule virheometry_summary:
         reports=expand("results/virheometry/{material}/report.html", material=virheometry_materials()),
     output:
         report("results/virheometry/summary.html", caption="../report/summary.rst", category="Real dam breaks"),
+    resources:
+        mem_mb=1000,
+        runtime=5,
     log:
         "logs/virheometry/summary.log",
     params:
