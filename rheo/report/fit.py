@@ -150,7 +150,8 @@ def headline(params: dict) -> str:
     """The result in a sentence: the law with its intervals, and what the recording does not determine."""
     hb = params["parameters"]
     law = ", ".join(f"{SYMBOLS.get(k, k)} = {hb[k]['value']:.3g}{' ' + UNITS[k] if UNITS[k] else ''} "
-                    f"{interval_text(hb[k])}" for k in hb if k not in ("mu", "lam"))
+                    f"{interval_text(hb[k])}{' (held at its guess)' if hb[k].get('held_at_initial_guess') else ''}"
+                    for k in hb if k not in ("mu", "lam"))
     undetermined = [SYMBOLS.get(k, k) for k, p in hb.items() if not p["determined"]]
     rest = (f" The recording does not determine {', '.join(undetermined)}: the loss barely changes along "
             f"{'it' if len(undetermined) == 1 else 'them'}." if undetermined else
