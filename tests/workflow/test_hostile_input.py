@@ -207,7 +207,8 @@ def test_a_broken_virheometry_folder_is_named_at_import(workflow, tmp_path, brea
 
 
 def test_a_second_run_on_the_same_folder_is_refused_by_the_lock(workflow):
-    first = subprocess.Popen(workflow.command("results/tiny/recordings"), cwd=workflow.root, env=workflow.env,
+    # the first run goes on to the fit (tens of seconds), so it still holds its lock when the second one starts
+    first = subprocess.Popen(workflow.command("results/tiny/fit/params.json"), cwd=workflow.root, env=workflow.env,
                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         locks = workflow.root / ".snakemake/locks"
