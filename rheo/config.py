@@ -101,12 +101,16 @@ def _shown(value: Any, limit: int = 60) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
+def _wanted_types(error: ValidationError) -> list[str]:
+    """The types a "type" error asked for."""
+    return error.validator_value if isinstance(error.validator_value, list) else [error.validator_value]
+
+
 def _sentence(error: ValidationError) -> str:
     """What is wrong, said about the value the user wrote."""
     value, rule = error.instance, error.validator
     if rule == "type":
-        wanted = error.validator_value if isinstance(error.validator_value, list) else [error.validator_value]
-        return f"{_shown(value)} is not {' or '.join(_TYPE_WORDS.get(t, t) for t in wanted)}"
+        return f"{_shown(value)} is not {' or '.join(_TYPE_WORDS.get(t, t) for t in _wanted_types(error))}"
     if rule == "enum":
         return f"{_shown(value)} is not one of {', '.join(map(str, error.validator_value))}"
     if rule in ("minimum", "maximum", "exclusiveMinimum", "exclusiveMaximum"):
@@ -138,10 +142,9 @@ def _numbers_from_text(data: dict, errors) -> bool:
     and every value given in a mapping on Snakemake's command line); whether any was changed."""
     changed = False
     for error in errors:
-        wanted = error.validator_value if isinstance(error.validator_value, list) else [error.validator_value]
         if error.validator != "type" or not isinstance(error.instance, str) or not _reads_as_number(error.instance):
             continue
-        number = float(error.instance)
+        wanted, number = _wanted_types(error), float(error.instance)
         if "integer" in wanted and number.is_integer():
             value: float | int = int(number)
         elif "number" in wanted:
@@ -182,3 +185,11 @@ def load_schema(path: str | Path) -> dict:
 def load_checked(path: str | Path, schema: dict) -> dict:
     """A YAML file read strictly and validated against ``schema``, its defaults filled in."""
     return validated(load_yaml(path), schema, str(path))
+
+
+def load_named(path: Path, schema: dict) -> dict:
+    """A config file of one named thing (an experiment, a concealed case), whose ``name`` must be its file's stem."""
+    data = load_checked(path, schema)
+    if data["name"] != path.stem:
+        raise ConfigError(f"{path}: name {data['name']!r} differs from the file name {path.stem!r}")
+    return data

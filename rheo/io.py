@@ -18,11 +18,11 @@ def _temporary_prefix(path: Path) -> str:
 
 def _running(pid: int) -> bool:
     try:
-        os.kill(pid, 0)
+        os.kill(pid, 0)  # a signal that checks the process exists (PermissionError: it does, another user's)
     except ProcessLookupError:
         return False
     except PermissionError:
-        return True
+        pass
     return True
 
 

@@ -12,9 +12,10 @@ from rheo.config import ConfigError
 # mass, momentum and velocity per node), float32
 PARTICLE_BYTES = 2 * 24 * 4 + 12 * 4
 NODE_BYTES = 7 * 4
-# a step kept for the backward pass (rheo.physics.Simulator.bytes_per_step), in chunks of at most CHECKPOINT_BYTES
-TAPE_PARTICLE_BYTES = 2 * 24 * 4 + 12 * 4
-TAPE_NODE_BYTES = 2 * 7 * 4
+# a step kept for the backward pass (rheo.physics.Simulator.bytes_per_step: the same particle arrays, the grid's with
+# their gradients), in chunks of at most CHECKPOINT_BYTES
+TAPE_PARTICLE_BYTES = PARTICLE_BYTES
+TAPE_NODE_BYTES = 2 * NODE_BYTES
 CHECKPOINT_BYTES = 2**30
 # the lab renderer at twice the resolution, per output pixel, measured on 320 x 240 and 640 x 480 views
 RENDER_BYTES_PER_PIXEL = 800
@@ -24,7 +25,6 @@ RENDER_SECONDS_PER_PIXEL = 1.2e-6
 SECONDS_PER_PARTICLE_STEP = 1.0e-6
 SECONDS_PER_NODE_STEP = 2.0e-8
 FIT_WORKERS = 2
-DEFAULT_CFL = 0.4
 
 
 @dataclass(frozen=True)
@@ -56,15 +56,18 @@ def proxy_volume(proxy: dict) -> float:
 
 
 def simulation_steps(exp: dict) -> int:
-    """Steps over the recorded duration: ``substeps`` per frame interval, else the elastic CFL step."""
-    sim, mat = exp["simulation"], exp["material"]
+    """Steps over the recorded duration: ``substeps`` per frame interval, else the simulator's CFL step for the
+    material's waves and a fall across the domain."""
+    sim = exp["simulation"]
     intervals = sim["frames"] - 1
     if sim.get("substeps"):
         return intervals * sim["substeps"]
+    from rheo.experiments.scene import material  # the simulator's modules: imported only where needed
+    from rheo.physics.simulator import DEFAULT_CFL
+
     dx = sim["domain_size"] / sim["resolution"]
-    wave_speed = math.sqrt((mat.get("lam", 0.0) + 2.0 * mat.get("mu", 0.0)) / mat.get("density", 1000.0))
     fall_speed = math.sqrt(2.0 * 9.8 * sim["domain_size"])
-    dt = DEFAULT_CFL * dx / (wave_speed + fall_speed)
+    dt = DEFAULT_CFL * dx / (material(exp["material"]).wave_speed() + fall_speed)
     return intervals * max(1, math.ceil(sim["duration"] / intervals / dt))
 
 
@@ -91,13 +94,14 @@ def experiment_cost(exp: dict) -> Cost | None:
     nodes = sim["resolution"] ** 3
     steps = simulation_steps(exp)
     step_seconds = particles * SECONDS_PER_PARTICLE_STEP + nodes * SECONDS_PER_NODE_STEP
+    simulation_bytes = particles * PARTICLE_BYTES + nodes * NODE_BYTES
     scene = f"a {sim['resolution']}^3 grid, {particles:,.0f} particles, {steps:,} steps"
 
-    memory = {f"the simulation: {scene}": particles * PARTICLE_BYTES + nodes * NODE_BYTES}
+    memory = {f"the simulation: {scene}": simulation_bytes}
     seconds = {f"one simulation: {scene}": steps * step_seconds}
     if exp.get("kind") == "virtual":
         memory[f"the lab's {sim['frames']:,} stored frames of {particles:,.0f} particles"] = (
-            sim["frames"] * particles * 12 + particles * PARTICLE_BYTES + nodes * NODE_BYTES)
+            sim["frames"] * particles * 12 + simulation_bytes)
         width, height, count = cams.get("width", 400), cams.get("height", 400), cams.get("count", 11)
         views = f"{count} cameras of {width} x {height} px, {sim['frames']:,} frames"
         memory[f"the lab's renderer: {views}, {FIT_WORKERS} at a time"] = (
@@ -110,8 +114,7 @@ def experiment_cost(exp: dict) -> Cost | None:
                                                                  min(tape_steps * tape_step_bytes, CHECKPOINT_BYTES))
     seconds[f"the velocity stage: {scene}"] = 3 * velocity.get("iterations", 20) * tape_steps * step_seconds
     runs = _fit_simulations(exp)
-    memory[f"the fit's simulations, {FIT_WORKERS} at a time: {scene}"] = FIT_WORKERS * (
-        particles * PARTICLE_BYTES + nodes * NODE_BYTES)
+    memory[f"the fit's simulations, {FIT_WORKERS} at a time: {scene}"] = FIT_WORKERS * simulation_bytes
     seconds[f"the fit's {runs:,.0f} simulations, {FIT_WORKERS} at a time: {scene}"] = (
         runs * steps * step_seconds / FIT_WORKERS)
 

@@ -4,7 +4,7 @@ import glob
 import json
 from pathlib import Path
 
-from rheo.config import ConfigError, load_checked, load_schema, load_yaml
+from rheo.config import ConfigError, load_named, load_schema, load_yaml
 from rheo.experiments.cost import check_cost, experiment_cost
 
 EXPERIMENT_SCHEMA = load_schema(Path(workflow.basedir) / "workflow/schemas/experiment.schema.yaml")
@@ -64,9 +64,7 @@ def experiment(name):
 
 @functools.cache
 def _checked_experiment(path, modified):
-    exp = load_checked(path, EXPERIMENT_SCHEMA)
-    if exp["name"] != path.stem:
-        raise ConfigError(f"{path}: name {exp['name']!r} differs from the file name {path.stem!r}")
+    exp = load_named(path, EXPERIMENT_SCHEMA)
     check_cost(experiment_cost(exp), config["limits"], str(path))
     return json.dumps(exp, sort_keys=True)
 

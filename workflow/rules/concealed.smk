@@ -20,9 +20,7 @@ def concealed_case(name: str) -> dict:
     path = Path(config["concealed"]["cases"]) / f"{name}.yaml"
     if not path.is_file():
         raise ConfigError(f"{path}: no such concealed case")
-    case = load_checked(path, CASE_SCHEMA)
-    if case["name"] != name:
-        raise ConfigError(f"{path}: name {case['name']!r} differs from the file name {name!r}")
+    case = load_named(path, CASE_SCHEMA)
     channels = len(config["concealed"]["scene"]["setups"])
     if len(case.get("channels", [None] * channels)) != channels:
         raise ConfigError(f"{path}: {len(case['channels'])} channels given, the scene films {channels}")
