@@ -12,6 +12,7 @@ import traceback
 from pathlib import Path
 
 import rheo
+from rheo.physics.simulator import set_default_device
 
 
 def setup_logging(log_file: str | Path | None) -> logging.Logger:
@@ -35,6 +36,13 @@ def setup_logging(log_file: str | Path | None) -> logging.Logger:
                 f.write("".join(traceback.format_exception(kind, error, trace)))
 
     sys.excepthook = report
+    return log
+
+
+def start_stage(smk) -> logging.Logger:
+    """A stage's start: logging into its Snakemake log file, simulations on the configured device."""
+    log = setup_logging(smk.log[0])
+    set_default_device(smk.config["simulation"]["device"])
     return log
 
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from rheo.io import read_json, write_json_atomic
 from rheo.report.figures import camera_frusta, save_figure
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 from rheo.vision.calibration import (
     Board,
     adjust_ground_views,
@@ -28,7 +28,7 @@ from rheo.vision.matting import iou
 from rheo.vision.silhouette import refine_pose, silhouette_mask
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 cfg = smk.params.calibration
 board = Board(**cfg["board"])
 intrinsics, views, boards = {}, {}, defaultdict(list)

@@ -8,10 +8,10 @@ import numpy as np
 from rheo.experiments.concealed import concealed_truth
 from rheo.fit.dam_break import setup_files, targets
 from rheo.io import read_json, write_json_atomic
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 truth = read_json(smk.input.truth)
 filmed = concealed_truth({"effects": truth["effects"]}, {"tau_y": truth["tau_y_Pa"], "K": truth["K_Pa_s_n"]})
 simulation = {**smk.params.simulation, "mu": truth["mu_Pa"], "lam": truth["lam_Pa"]}

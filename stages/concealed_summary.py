@@ -9,10 +9,10 @@ from rheo.diagnose.candidates import CANDIDATES
 from rheo.io import json_number, read_json, write_json_atomic, write_text_atomic
 from rheo.report.diagnosis import confusion_section
 from rheo.report.html import page, table_tag
-from rheo.stage import code_version, setup_logging
+from rheo.stage import code_version, start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 CORE = {"tau_y_Pa": "tau_y", "K_Pa_s_n": "K"}
 
 

@@ -6,10 +6,10 @@ import numpy as np
 
 from rheo.experiments.concealed import anonymous, concealed_truth, film
 from rheo.io import write_atomic, write_json_atomic
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 case, scene = smk.params.case, smk.params.scene
 truth = concealed_truth(case, smk.params.truth)
 mu, lam = (case["elastic"]["mu"], case["elastic"]["lam"]) if "elastic" in case else smk.params.elastic

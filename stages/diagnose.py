@@ -17,10 +17,10 @@ from rheo.report.diagnosis import maps_figure, section
 from rheo.report.figures import save_figure
 from rheo.report.html import page
 from rheo.report.virheometry import rheometer_comparison
-from rheo.stage import inputs_key, setup_logging
+from rheo.stage import inputs_key, start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 started = time.time()
 setups = setup_files(smk.input.setups, smk.input.masks)
 fit = read_json(smk.input.fit)

@@ -20,10 +20,10 @@ from rheo.fit.inverse import PARAMETERS, initial_guess, log_values, silhouette_o
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, estimate, simplex_search, start_step, survey_points
 from rheo.io import read_json, write_atomic, write_json_atomic
-from rheo.stage import inputs_key, setup_logging
+from rheo.stage import inputs_key, start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 exp, phase_name = smk.params.experiment, smk.params.phase
 settings = exp["fit"]
 warmup = phase_name == "warmup"

@@ -8,11 +8,11 @@ import imageio.v2 as imageio
 
 from rheo.io import write_atomic_dir
 from rheo.report.figures import contact_sheet, save_figure
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 from rheo.vision.ingest import read_frames, write_camera
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 cameras = smk.params.recording["cameras"]
 sheet = {}
 

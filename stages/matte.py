@@ -9,11 +9,11 @@ from tqdm.auto import tqdm
 
 from rheo.io import write_atomic_dir, write_json_atomic
 from rheo.report.figures import mask_overlays, save_figure
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 from rheo.vision.matting import MatteSettings, iou, matte
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 settings = MatteSettings(**smk.params.settings)
 recordings = Path(smk.input.recordings)
 report = {"settings": smk.params.settings, "views": {}}

@@ -10,11 +10,11 @@ from rheo.experiments.scene import particle_spacing, simulator
 from rheo.io import read_json, write_atomic
 from rheo.render.surface import framing, surface_image
 from rheo.report.figures import contact_sheet, save_figure
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 from rheo.vision.cameras import Camera
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 exp = smk.params.experiment
 cfg, sim_cfg = exp["novel"], exp["simulation"]
 if "duration" not in sim_cfg:  # a real recording: as long as the first camera's

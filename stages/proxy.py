@@ -5,10 +5,10 @@ import numpy as np
 from rheo.geometry.proxy import from_config, voxelize
 from rheo.io import write_atomic, write_json_atomic
 from rheo.report.figures import particle_views, save_figure
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 cfg = smk.params.proxy
 mesh, analytic = from_config(cfg)
 vox = voxelize(mesh, cfg["spacing"])

@@ -25,10 +25,10 @@ from rheo.report.fit import (
     training_figure,
 )
 from rheo.report.html import figure_tag, image_tag
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 exp = smk.params.experiment
 params = read_json(smk.input.params)
 with open(smk.input.history) as f:

@@ -20,10 +20,10 @@ from rheo.fit.seed import (
 from rheo.io import read_json, write_atomic, write_json_atomic
 from rheo.report.figures import contact_sheet, save_figure
 from rheo.report.fit import focus_crop, observed_crop, rendered_crop
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 settings, simulation = smk.params.settings, smk.params.simulation
 spacing = particle_spacing(simulation)
 bounds = start_bounds(simulation)

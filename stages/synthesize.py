@@ -6,10 +6,10 @@ from rheo.experiments.scene import material
 from rheo.experiments.virtual_lab import LabBoard, simulate_truth, write_recordings
 from rheo.io import write_json_atomic
 from rheo.report.figures import camera_frusta, save_figure
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 exp = smk.params.experiment
 lab = exp["lab"]
 board = LabBoard(**lab["board"], views=lab["views"], ground_origin=tuple(lab["ground_origin"]))

@@ -4,10 +4,10 @@ import math
 from collections import defaultdict
 
 from rheo.io import read_json, write_json_atomic
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 thesis = {float(k): v for k, v in smk.params.thesis_rows.items()}
 errors = defaultdict(list)
 for path in smk.input:

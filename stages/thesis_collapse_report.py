@@ -3,10 +3,10 @@
 
 from rheo.io import read_json, write_text_atomic
 from rheo.report.collapse import render, rows_from_runs, to_csv
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 calibration = read_json(smk.input.calibration)
 runs_41 = [r for r in (read_json(p) for p in smk.input.calibration_runs)
            if (r["mu"], r["lam"]) == (calibration["mu"], calibration["lam"])]

@@ -6,10 +6,10 @@ import time
 from rheo.experiments.collapse import CollapseSetup, simulate_collapse
 from rheo.io import read_json, write_json_atomic
 from rheo.physics import HerschelBulkley
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 setup = CollapseSetup(**smk.params.setup)
 if hasattr(smk.input, "calibration"):
     calibration = read_json(smk.input.calibration)

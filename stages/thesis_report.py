@@ -5,10 +5,10 @@ import csv
 
 from rheo.io import read_json, write_text_atomic
 from rheo.report.thesis import recovery_rows, render
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 tables = []
 for (key, spec), path in zip(smk.params.tables.items(), smk.input.params, strict=True):
     rows = recovery_rows(spec["recovered"], read_json(path))

@@ -9,10 +9,10 @@ import torch
 from rheo.fit.inverse import Phase, build_problem, initial_guess, log_values, run_phase
 from rheo.fit.observations import load
 from rheo.io import write_json_atomic
-from rheo.stage import inputs_key, setup_logging
+from rheo.stage import inputs_key, start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 exp = smk.params.experiment
 settings = exp["fit"]["velocity"]
 obs = load(smk.input.recordings, smk.input.matte, smk.input.cameras, frames=settings["frames"] + 1)

@@ -16,10 +16,10 @@ from rheo.fit.convergence import (
 )
 from rheo.io import write_json_atomic, write_text_atomic
 from rheo.report.convergence import render
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 study, simulation, material = smk.params.study, smk.params.simulation, smk.wildcards.material
 laws = {label: tuple(law) for label, law in smk.params.laws.items()}
 if smk.input.rheometer:

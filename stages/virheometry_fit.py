@@ -32,10 +32,10 @@ from rheo.fit.search import EvaluationLog, estimate, start_step, survey_points
 from rheo.io import json_number, write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import frames_figure
-from rheo.stage import inputs_key, setup_logging
+from rheo.stage import inputs_key, start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 started = time.time()
 settings, simulation = smk.params.settings, smk.params.simulation
 setups = setup_files(smk.input.setups, smk.input.masks)

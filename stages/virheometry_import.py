@@ -7,10 +7,10 @@ from rheo.experiments.virheometry import cuboid_overlap, read_setup
 from rheo.io import write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import camera_check_figure
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 setup = read_setup(smk.params.folder, smk.params.scale)
 overlap = cuboid_overlap(setup)
 log.info("%s: %s, H %.3g m, W %.3g m, depth %.3g m, density %.0f kg/m^3, %d frames at %g fps; initial cuboid on "

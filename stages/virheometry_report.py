@@ -12,10 +12,10 @@ from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import interval_text
 from rheo.report.html import figure_tag, image_tag, page, table_tag
 from rheo.report.virheometry import flow_figure, rheometer_comparison
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 material = smk.wildcards.material
 params = read_json(smk.input.params)
 KEYS = dict(zip(RESULT_KEYS.values(), ("tau_y (Pa)", "K (Pa s^n)", "n"), strict=True))

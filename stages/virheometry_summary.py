@@ -10,10 +10,10 @@ from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import interval_text
 from rheo.report.html import figure_tag, link_tag, page, table_tag
 from rheo.report.virheometry import summary_figure
-from rheo.stage import setup_logging
+from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
-log = setup_logging(smk.log[0])
+log = start_stage(smk)
 KEYS = tuple(RESULT_KEYS.values())
 output = Path(smk.output[0])
 rows, laws, links = [], {}, []

@@ -27,6 +27,8 @@ from rheo.experiments.virheometry import setup_folders
 from rheo.fit.dam_break import RESULT_KEYS, comparisons, setup_files
 from rheo.fit.parallel import Evaluator
 from rheo.io import write_json_atomic
+from rheo.physics.bench import device_name
+from rheo.physics.simulator import DEVICES, set_default_device
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -68,13 +70,15 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--benchmarks", type=Path, default=Path("benchmarks/virheometry"))
     parser.add_argument("--materials", nargs="*", help="default: every fitted material")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--device", choices=DEVICES, default="cpu", help="cuda: one simulation at a time on the GPU")
     args = parser.parse_args(argv)
+    set_default_device(args.device)
     simulation = settings(args.config)["virheometry"]["simulation"]
     materials = args.materials or sorted(p.parent.parent.name for p in args.results.glob("*/fit/params.json"))
     if not materials:
         parser.error(f"{args.results}: no fitted material (<material>/fit/params.json)")
     report = {"materials": {}, "workers": args.workers, "machine": platform.processor() or platform.machine(),
-              "simulation": simulation}
+              "device": device_name(args.device), "simulation": simulation}
     for material in materials:
         report["materials"][material] = measure_material(material, args.results, args.benchmarks, simulation,
                                                          args.workers)

@@ -6,11 +6,13 @@ compiling kernels) and keeps them; a task names the objective and the point. A w
 numpy's) run on one thread: with a pool of threads each, the workers' threads contend for the cores (two workers
 evaluating laws on Lotion's two setups at 12 x 14 cells: 18.9 s an evaluation against 14.1 s), and a forked worker
 whose parent had run torch's OpenMP threads hangs in its first parallel operation. (OpenCV's threads are left as
-they are: setting them in a forked worker hangs.)
+they are: setting them in a forked worker hangs.) On a GPU the simulations run one after the other in the calling
+process.
 """
 
 from __future__ import annotations
 
+import logging
 import multiprocessing
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
@@ -18,6 +20,10 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import torch
 from threadpoolctl import threadpool_limits
+
+from rheo.physics.simulator import resolve_device
+
+logger = logging.getLogger(__name__)
 
 Objective = Callable[[np.ndarray], object]
 _objectives: dict[str, Objective] = {}
@@ -40,6 +46,9 @@ class Evaluator:
     mapping, which may build an objective when it is first asked for); their values must be picklable."""
 
     def __init__(self, build: Callable[[], dict[str, Objective]], workers: int) -> None:
+        if workers > 1 and resolve_device() != "cpu":
+            logger.info("simulations run on the GPU, one at a time (a forked worker cannot use CUDA)")
+            workers = 1
         self.workers = workers
         if workers > 1:
             # forked, not spawned: a spawned worker would run the calling script (a Snakemake stage) again

@@ -2,10 +2,12 @@
 resident memory of a long differentiable rollout.
 
     python -m rheo.physics.bench --out results/bench/physics.json
+    python -m rheo.physics.bench --device cuda --grids 32 64 128 --out results/bench/physics_cuda.json
 
 Cases: a cylinder (radius 0.2, height 0.4) of Herschel-Bulkley material in the unit box, 8 particles per cell, on
-32^3 and 48^3 grids; then a 1,000-step forward+backward rollout with about 15k particles, run in a child process
-so that its peak resident memory is its own.
+each grid (32^3 and 48^3 unless --grids says otherwise); then a 1,000-step forward+backward rollout with about 15k
+particles on 32^3, run in a child process so that its peak resident memory is its own (host memory: on a GPU most
+of the rollout's memory is the GPU's).
 """
 
 from __future__ import annotations
@@ -20,10 +22,12 @@ import time
 from pathlib import Path
 
 import torch
+import warp as wp
 
 from rheo.geometry.sampling import cylinder
 from rheo.io import write_json_atomic
 from rheo.physics import Floor, HerschelBulkley, Simulator
+from rheo.physics.simulator import DEVICES, resolve_device, set_default_device
 
 MATERIAL = HerschelBulkley.from_pacnerf(sigma_y=1000.0, eta=10.0, mu=1.0e4, lam=1.0e4)
 DT = 1e-3
@@ -67,23 +71,33 @@ def measure_rollout(steps: int) -> dict:
             "peak_rss_mb": round(peak_kb / 1024, 1), "checkpoint_mb": sim.checkpoint_mb}
 
 
+def device_name(device: str) -> str:
+    """The device a simulator built for ``device`` runs on, as Warp names it ("cpu", or "cuda:0 (<GPU model>)")."""
+    resolved = resolve_device(device)
+    return resolved if resolved == "cpu" else f"{resolved} ({wp.get_device(resolved).name})"
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
     parser.add_argument("--steps", type=int, default=40, help="steps timed per case")
     parser.add_argument("--rollout-steps", type=int, default=1000)
+    parser.add_argument("--grids", type=int, nargs="+", default=[32, 48], help="cells per axis of the timed cases")
+    parser.add_argument("--device", choices=DEVICES, default="cpu")
     parser.add_argument("--only-rollout", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     torch.set_num_threads(2)
+    set_default_device(args.device)
     if args.only_rollout:
         print(json.dumps(measure_rollout(args.rollout_steps)))
         return
-    cases = [measure_case(res, args.steps) for res in (32, 48)]
+    cases = [measure_case(res, args.steps) for res in args.grids]
     child = subprocess.run([sys.executable, "-m", "rheo.physics.bench", "--out", str(args.out), "--only-rollout",
-                            "--rollout-steps", str(args.rollout_steps)], check=True, capture_output=True, text=True)
+                            "--rollout-steps", str(args.rollout_steps), "--device", args.device],
+                           check=True, capture_output=True, text=True)
     rollout = json.loads(child.stdout.strip().splitlines()[-1])
     report = {"cases": cases, "rollout": rollout, "threads": 2, "machine": platform.processor() or platform.machine(),
-              "dtype": "float32", "dt": DT}
+              "device": device_name(args.device), "dtype": "float32", "dt": DT}
     write_json_atomic(args.out, report)
     print(json.dumps(report, indent=2))
 

@@ -36,6 +36,40 @@ CAPILLARY_STRESS_TIME, CAPILLARY_STRESS_LOW = 3, 9
 CAPILLARY_FORCE_LOW = 3
 # the default step: this share of the time a wave (elastic, plus the fastest flow) takes to cross a cell
 DEFAULT_CFL = 0.4
+DEVICES = ("auto", "cpu", "cuda")
+_default_device = "cpu"
+
+
+def set_default_device(name: str) -> None:
+    """The device of simulators built without one: "cpu", "cuda" (the first GPU) or "auto" (CUDA when Warp sees a
+    GPU, else the CPU); resolved when a simulator is built."""
+    global _default_device
+    if name not in DEVICES:
+        raise SimulationError(f"simulation device {name!r} must be one of {', '.join(DEVICES)}")
+    _default_device = name
+
+
+def resolve_device(name: str | None = None) -> str:
+    """Warp's name of the device ``name`` (the default device if None) stands for: "cpu" or "cuda:0"."""
+    name = _default_device if name is None else name
+    if name not in DEVICES:
+        raise SimulationError(f"simulation device {name!r} must be one of {', '.join(DEVICES)}")
+    wp.init()
+    gpus = wp.get_cuda_device_count()
+    if name == "cuda" and gpus == 0:
+        raise SimulationError("simulation.device is cuda, but Warp sees no CUDA GPU on this machine (set it to auto "
+                              "or cpu)")
+    return "cuda:0" if name == "cuda" or (name == "auto" and gpus > 0) else "cpu"
+
+
+def _host(arr: wp.array) -> torch.Tensor:
+    """A Warp array's values as a CPU tensor (a view on the CPU, a copy from a GPU)."""
+    return torch.from_numpy(arr.numpy())
+
+
+def _assign(arr: wp.array, values: torch.Tensor) -> None:
+    """Set a Warp array, wherever it lives, to a CPU tensor's values (shaped as ``_host`` gives them)."""
+    arr.assign(np.ascontiguousarray(values.detach().numpy()))
 
 
 def particle_bounds(domain_origin, domain_size: float, dx: float) -> tuple[np.ndarray, np.ndarray]:
@@ -92,6 +126,9 @@ class Simulator:
     ``physics`` switches on effects beyond the base model (``OptionalPhysics``); a thixotropic rollout, or one with
     surface tension, is not differentiated.
 
+    ``device`` is "cpu", "cuda" or "auto" (``set_default_device``'s choice if None); tensors go in and come out on
+    the CPU whatever it is.
+
     ``dt`` fixes the step of every rollout (rounded to divide the frame interval); without it each rollout takes the
     largest step its material's stability limit allows; an unstable rollout is retried at half the step (and half the
     interval between transfers). The particle-grid transfers dissipate a little each time, so with a transfer at
@@ -106,7 +143,7 @@ class Simulator:
                  dtype: torch.dtype = torch.float32, cfl: float = DEFAULT_CFL, max_halvings: int = 4,
                  checkpoint_mb: float = 1024.0, domain_origin=(0.0, 0.0, 0.0),
                  symmetry_z: float | None = None, physics: OptionalPhysics | None = None,
-                 dt: float | None = None, transfer_dt: float | None = None) -> None:
+                 dt: float | None = None, transfer_dt: float | None = None, device: str | None = None) -> None:
         if not isinstance(material, Material):
             raise MaterialError(f"expected a Material, got {material!r}")
         if not (isinstance(resolution, int) and resolution >= 2 * kernels.BOUND + 2):
@@ -145,7 +182,7 @@ class Simulator:
         self.transfer_dt = transfer_dt
         self.max_halvings = max_halvings
         self.checkpoint_mb = checkpoint_mb
-        wp.init()
+        self.device = resolve_device(device)
         self.kernels = kernels.build(self.scalar)
         self._free_buffers: list[_Buffers] = []
 
@@ -277,9 +314,10 @@ class Simulator:
             dt = frame_dt / substeps
         kernel_mat = material.kernel_vector(mat)
         for attempt in range(self.max_halvings + 1):
-            run = _Run(self, material, dt, substeps, frames, particle_volume, progress, steps_per_transfer)
             try:
-                x, v, C, F = _RolloutFunction.apply(run, x0 - origin, v0, kernel_mat, bnd)
+                with wp.ScopedDevice(self.device):
+                    run = _Run(self, material, dt, substeps, frames, particle_volume, progress, steps_per_transfer)
+                    x, v, C, F = _RolloutFunction.apply(run, x0 - origin, v0, kernel_mat, bnd)
                 break
             except _Unstable as err:
                 if attempt == self.max_halvings:
@@ -463,17 +501,17 @@ class _Run:
                 if record is not None:
                     frame = (step + 1) // self.substeps
                     for out, arr in zip(record, buf.state(i + 1), strict=True):
-                        out[frame].copy_(wp.to_torch(arr).reshape(out[frame].shape))
+                        out[frame].copy_(_host(arr).reshape(out[frame].shape))
                 if bar is not None:
                     bar.update(1)
         return tape
 
     def _load(self, buf: _Buffers, state: tuple[torch.Tensor, ...]) -> None:
         for arr, t in zip(buf.state(0), state, strict=True):
-            wp.to_torch(arr).copy_(t.reshape(wp.to_torch(arr).shape))
+            _assign(arr, t)
 
     def _save(self, buf: _Buffers, i: int) -> tuple[torch.Tensor, ...]:
-        return tuple(wp.to_torch(a).clone() for a in buf.state(i))
+        return tuple(_host(a).clone() for a in buf.state(i))
 
     def forward(self, x0: torch.Tensor, v0: torch.Tensor, mat: torch.Tensor, bnd: torch.Tensor,
                 requires_grad: bool) -> tuple[torch.Tensor, ...]:
@@ -554,15 +592,15 @@ class _Run:
                     seeds.append(adjoint)
                 for seed in seeds:
                     for arr, g in zip(buf.state(i), seed, strict=True):
-                        target = wp.to_torch(arr.grad)
-                        target += g.reshape(target.shape).to(sim.dtype)
+                        grad = _host(arr.grad)
+                        _assign(arr.grad, grad + g.reshape(grad.shape).to(sim.dtype))
             self.tape.backward()
-            adjoint = tuple(wp.to_torch(a.grad).clone() for a in buf.state(0))
+            adjoint = tuple(_host(a.grad).clone() for a in buf.state(0))
             self.tape = None
         gx0 = adjoint[0] + grads[0][0]
         gv0 = adjoint[1] + grads[1][0]
-        gmat = wp.to_torch(self.mat.grad).clone()
-        gbnd = wp.to_torch(self.bnd.grad).clone()
+        gmat = _host(self.mat.grad).clone()
+        gbnd = _host(self.bnd.grad).clone()
         sim._release(buf)
         self.buf = None
         return gx0, gv0, gmat, gbnd
@@ -576,5 +614,6 @@ class _RolloutFunction(torch.autograd.Function):
 
     @staticmethod
     def backward(ctx, gx, gv, gC, gF):
-        gx0, gv0, gmat, gbnd = ctx.run.backward((gx, gv, gC, gF))
+        with wp.ScopedDevice(ctx.run.sim.device):
+            gx0, gv0, gmat, gbnd = ctx.run.backward((gx, gv, gC, gF))
         return None, gx0, gv0, gmat, gbnd

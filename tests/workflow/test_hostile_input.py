@@ -13,6 +13,7 @@ import cv2
 import imageio.v2 as imageio
 import numpy as np
 import pytest
+import warp as wp
 import yaml
 
 BAD = "config/experiments/bad.yaml"
@@ -102,10 +103,17 @@ def test_an_estimate_over_the_limits_is_refused_with_how_to_raise_them(workflow)
     ("virheometry={scale: .nan}", "virheometry.scale: '.nan' is not a number"),
     ("virheometry={scale: 1e-6}", "virheometry.scale: 1e-06 must be at least 0.1"),
     ("limits={hours: -1}", "limits.hours (total time on the CPU (h)): -1.0 must be above 0"),
+    ("simulation={device: gpu}", "simulation.device: 'gpu' is not one of auto, cpu, cuda"),
 ])
 def test_a_bad_workflow_setting_is_named(workflow, override, message):
     _refused(workflow.run("-n", "results/tiny/recordings", "--config", override),
              f"config/config.yaml (with --config): {message}")
+
+
+@pytest.mark.skipif(wp.get_cuda_device_count() > 0, reason="this machine has a CUDA GPU")
+def test_a_gpu_asked_for_where_there_is_none_is_one_sentence(workflow):
+    _refused(workflow.run("results/tiny/recordings", "--config", "simulation={device: cuda}"),
+             "simulation.device is cuda, but Warp sees no CUDA GPU on this machine")
 
 
 def test_a_duplicate_key_in_the_workflow_config_is_named(workflow):
