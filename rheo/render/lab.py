@@ -1,6 +1,6 @@
 """The virtual lab's renderer: shaded particle splats over a textured floor with a cast shadow, a backdrop and
-sensor noise, through a distorted pinhole camera. It shares nothing with the fit's renderer: surfaces are shaded
-from the normals of a smoothed density field, occlusion is a painter's algorithm, and the floor is ray-cast.
+sensor noise, through a distorted pinhole camera. It shares nothing with the fit's renderer: the splats' nearest depth
+in each pixel, smoothed, gives the surface's normals for shading, and the floor is ray-cast.
 """
 
 from __future__ import annotations
@@ -83,17 +83,18 @@ def _shadow(points: np.ndarray, radius: float, light: np.ndarray, x: np.ndarray,
     return np.where(outside, 1.0, 1.0 - 0.55 * np.clip(occluded[i, k] * 1.5, 0.0, 1.0))
 
 
-def particle_normals(points: np.ndarray, spacing: float) -> np.ndarray:
-    """Outward unit normals from the gradient of a smoothed particle density."""
-    lo = points.min(axis=0) - 4 * spacing
-    idx = np.floor((points - lo) / spacing).astype(int)
-    shape = idx.max(axis=0) + 5
-    density = np.zeros(shape)
-    np.add.at(density, tuple(idx.T), 1.0)
-    density = ndimage.gaussian_filter(density, 1.5)
-    grads = np.stack(np.gradient(density), axis=-1)[tuple(idx.T)]
-    norm = np.linalg.norm(grads, axis=1, keepdims=True)
-    return np.where(norm > 1e-12, -grads / np.maximum(norm, 1e-12), np.array([0.0, 1.0, 0.0]))
+def surface_normals(origin: np.ndarray, dirs: np.ndarray, forward: np.ndarray, depth: np.ndarray, covered: np.ndarray,
+                    smoothing: float) -> tuple[np.ndarray, np.ndarray]:
+    """World points and unit normals (towards the camera) of the surface seen in each pixel, from the splats' depth
+    buffer smoothed over ``smoothing`` pixels (a Gaussian, normalised over the ``covered`` pixels)."""
+    weight = ndimage.gaussian_filter(covered.astype(float), smoothing)
+    smoothed = ndimage.gaussian_filter(np.where(covered, depth, 0.0), smoothing)
+    nearest = np.where(covered, depth, np.inf).min()
+    z = np.where(weight > 1e-6, smoothed / np.maximum(weight, 1e-6), nearest)
+    points = origin + dirs * (z / (dirs @ forward))[..., None]
+    normals = np.cross(np.gradient(points, axis=1), np.gradient(points, axis=0))
+    normals *= np.sign(np.sum(normals * (origin - points), axis=-1, keepdims=True))
+    return points, normals / np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-12)
 
 
 def render(camera: Camera, points: np.ndarray | None = None, spacing: float | None = None, *,
@@ -119,18 +120,11 @@ def render(camera: Camera, points: np.ndarray | None = None, spacing: float | No
     image = np.where(on_floor[..., None], floor * shade[..., None], backdrop)
     mask = np.zeros(x.shape, dtype=bool)
     if points is not None and len(points):
-        normals = particle_normals(points, spacing)
-        diffuse = np.clip(normals @ light, 0.0, 1.0)
-        view = camera.c2w[:3, 3] - points
-        view /= np.linalg.norm(view, axis=1, keepdims=True)
-        half = (view + light) / np.linalg.norm(view + light, axis=1, keepdims=True)
-        specular = 0.25 * np.clip(np.sum(normals * half, axis=1), 0.0, 1.0) ** 30
-        albedo = np.asarray(scene.albedo)
-        colors = albedo * (scene.ambient + (1 - scene.ambient) * diffuse[:, None]) + specular[:, None]
         uv, depth = camera.project(points)
         radius_px = scene.splat_radius * spacing * camera.K[0, 0] / np.maximum(depth, 1e-6)
-        order = np.argsort(-depth)  # far to near: nearer splats overwrite
-        uv, radius_px, colors = uv[order], radius_px[order], colors[order]
+        order = np.argsort(-depth)  # far to near: of the splats reaching a pixel in one pass, the nearest is last
+        uv, radius_px, depth = uv[order], radius_px[order], depth[order]
+        zbuffer = np.full(x.shape, np.inf)
         reach = int(np.ceil(radius_px.max()))
         for du in range(-reach, reach + 1):
             for dv in range(-reach, reach + 1):
@@ -138,8 +132,21 @@ def render(camera: Camera, points: np.ndarray | None = None, spacing: float | No
                 py = np.floor(uv[:, 1]).astype(int) + dv
                 d2 = (px + 0.5 - uv[:, 0]) ** 2 + (py + 0.5 - uv[:, 1]) ** 2
                 keep = (d2 <= radius_px**2) & (px >= 0) & (py >= 0) & (px < camera.width) & (py < camera.height)
-                image[py[keep], px[keep]] = colors[keep]
-                mask[py[keep], px[keep]] = True
+                px, py, near = px[keep], py[keep], depth[keep]
+                closer = near < zbuffer[py, px]
+                zbuffer[py[closer], px[closer]] = near[closer]
+        mask = np.isfinite(zbuffer)
+        # shaded per pixel from the smoothed surface, so that the particles' lattice does not show
+        surface, normals = surface_normals(origin, dirs, camera.c2w[:3, 2], zbuffer, mask,
+                                           smoothing=float(np.median(radius_px)) / scene.splat_radius)
+        diffuse = np.clip(normals @ light, 0.0, 1.0)
+        view = origin - surface
+        view /= np.linalg.norm(view, axis=-1, keepdims=True)
+        half = (view + light) / np.linalg.norm(view + light, axis=-1, keepdims=True)
+        specular = 0.25 * np.clip(np.sum(normals * half, axis=-1), 0.0, 1.0) ** 30
+        albedo = np.asarray(scene.albedo)
+        colors = albedo * (scene.ambient + (1 - scene.ambient) * diffuse[..., None]) + specular[..., None]
+        image = np.where(mask[..., None], colors, image)
     if rng is not None and scene.noise > 0:
         image = image + rng.normal(0.0, scene.noise, image.shape)
     return (np.clip(image, 0.0, 1.0) * 255 + 0.5).astype(np.uint8), mask
