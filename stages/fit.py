@@ -119,7 +119,10 @@ if not warmup:
     truth = read_json(smk.input.truth)["material"]["as_configured"] if hasattr(smk.input, "truth") else {}
     params = {}
     for name, interval in result.intervals.items():
-        entry = {"value": interval.value, "ci95": [interval.low, interval.high], "ci95_open": list(interval.open),
+        # a held parameter is its configured guess exactly (not the guess through log and exp)
+        value = initial[name] if name in result.held else interval.value
+        entry = {"value": value, "interval": [min(interval.low, value), max(interval.high, value)],
+                 "interval_open": list(interval.open),
                  "determined": interval.determined, "held_at_initial_guess": name in result.held,
                  "initial": initial[name]}
         if name in truth:  # no error where the parameter was held at its guess: it was not recovered

@@ -78,7 +78,7 @@ sections.append(("Every view, animated", "".join(animations)))
 
 # the flow curve, with a band from the parameters' tolerance intervals (each taken as the central 95 % of an
 # independent normal log-parameter)
-draws = log_draws([Interval(p["value"], *p["ci95"]) for p in params["parameters"].values()])
+draws = log_draws([Interval(p["value"], *p["interval"]) for p in params["parameters"].values()])
 density_value = params["herschel_bulkley"]["density"]
 samples = np.array([simulator_parameters(dict(zip(names, torch.exp(torch.as_tensor(d)), strict=True)),
                                          params["convention"], density_value)[1:4].numpy() for d in draws])

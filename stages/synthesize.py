@@ -26,7 +26,8 @@ write_json_atomic(smk.output.truth, {
     "resolution": exp["simulation"]["resolution"], "particles_per_cell": exp["simulation"]["particles_per_cell"],
     "particles": int(truth["positions"].shape[1]),
     "particle_spacing": truth["spacing"], "dt": truth["dt"],
-    "masks": "coverage of the material's splats, rendered at twice the resolution and averaged", **record})
+    "masks": "coverage of the material's splats with slits under two particle spacings closed, rendered at "
+             "twice the resolution and averaged", **record})
 save_figure(camera_frusta(record["cameras"], truth["positions"][0][:: max(1, truth["positions"].shape[1] // 4000)],
                           f"{exp['name']}: lab cameras and the material at t = 0"), smk.output.figure)
 log.info("recordings written to %s", smk.output.recordings)

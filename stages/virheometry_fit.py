@@ -115,10 +115,10 @@ if spread.ridge:
 else:
     log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
 band = shear_rate_band(list(details.values()))
-params = {RESULT_KEYS[n]: {"value": i.value, "ci95": [i.low, i.high], "determined": i.determined,
-                           "ci95_open": list(i.open)} for n, i in intervals.items()}
+params = {RESULT_KEYS[n]: {"value": i.value, "interval": [i.low, i.high], "determined": i.determined,
+                           "interval_open": list(i.open)} for n, i in intervals.items()}
 if law.n is not None:
-    params[RESULT_KEYS["n"]] = {"value": law.n, "ci95": [law.n, law.n], "determined": True, "fixed": True}
+    params[RESULT_KEYS["n"]] = {"value": law.n, "interval": [law.n, law.n], "determined": True, "fixed": True}
 for n, i in intervals.items():
     log.info("%s = %.4g, tolerance interval [%.4g, %.4g]%s", n, i.value, i.low, i.high,
              "" if i.determined else " (not determined by the recordings)")

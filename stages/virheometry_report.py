@@ -76,9 +76,8 @@ if smk.input.single:
     rows = []
     for path in [*smk.input.single, smk.input.params]:
         fit = read_json(path)
-        rows.append([Path(path).parent.name, *[f"{interval_text(fit[k])} ({fit[k]['ci95'][1] / fit[k]['ci95'][0]:.2f})"
-                                               for k in KEYS],
-                     spread_text(fit)])
+        widths = [f"{interval_text(fit[k])} ({fit[k]['interval'][1] / fit[k]['interval'][0]:.2f})" for k in KEYS]
+        rows.append([Path(path).parent.name, *widths, spread_text(fit)])
     sections.append(("One setup against both", table_tag(header, rows)))
 sections.append(("Camera checks", "".join(image_tag(Path(p).read_bytes(), "png", Path(p).parent.name)
                                           for p in smk.input.camera_checks)))

@@ -97,7 +97,7 @@ def flow_curve_figure(tau_y: float, K: float, n: float, samples: np.ndarray | No
 def frames_figure(rows: list[tuple[str, list[tuple[str, np.ndarray]]]]):
     """Rows of labelled images (observed / initial guess / learned at chosen times)."""
     columns = max(len(r[1]) for r in rows)
-    fig, axes = plt.subplots(len(rows), columns, figsize=(2.6 * columns, 2.5 * len(rows)), squeeze=False)
+    fig, axes = plt.subplots(len(rows), columns, figsize=(4.0 * columns, 2.6 * len(rows)), squeeze=False)
     for ax in axes.ravel():
         ax.axis("off")
     for r, (label, panels) in enumerate(rows):
@@ -120,7 +120,7 @@ def gif_tag(frames: list[np.ndarray], caption: str, fps: float = 6.0, min_height
 def interval_text(entry: dict) -> str:
     """A fitted parameter's tolerance interval, "[low, high]", an open end (the region within the tolerance goes on past
     the fit's reach) marked < or >."""
-    (low, high), (open_low, open_high) = entry["ci95"], entry.get("ci95_open", [False, False])
+    (low, high), (open_low, open_high) = entry["interval"], entry.get("interval_open", [False, False])
     return f"[{'<' if open_low else ''}{low:.3g}, {'>' if open_high else ''}{high:.3g}]"
 
 

@@ -99,6 +99,6 @@ def test_a_folder_not_named_like_a_setup_is_refused(tmp_path):
 
 
 def test_an_open_end_of_an_interval_is_marked():
-    assert interval_text({"ci95": [2.5, 8.0]}) == "[2.5, 8]"
-    assert interval_text({"ci95": [2.5, 8.0], "ci95_open": [True, False]}) == "[<2.5, 8]"
-    assert interval_text({"ci95": [2.5, 8.0], "ci95_open": [False, True]}) == "[2.5, >8]"
+    assert interval_text({"interval": [2.5, 8.0]}) == "[2.5, 8]"
+    assert interval_text({"interval": [2.5, 8.0], "interval_open": [True, False]}) == "[<2.5, 8]"
+    assert interval_text({"interval": [2.5, 8.0], "interval_open": [False, True]}) == "[2.5, >8]"

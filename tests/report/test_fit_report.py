@@ -8,7 +8,7 @@ from rheo.report.fit import headline, parameter_rows, training_figure
 
 
 def entry(value: float, truth: float, held: bool = False) -> dict:
-    return {"value": value, "ci95": [value / 2, value * 2], "ci95_open": [held, False], "determined": not held,
+    return {"value": value, "interval": [value / 2, value * 2], "interval_open": [held, False], "determined": not held,
             "held_at_initial_guess": held, "initial": 1.0, "truth": truth, "error": value / truth - 1}
 
 

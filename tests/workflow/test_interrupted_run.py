@@ -56,6 +56,6 @@ def test_a_fit_killed_half_way_resumes_from_its_stored_evaluations(tmp_path, cor
         expected, found = (json.loads((w.root / TARGET).read_text()) for w in (whole, killed))
         assert found["final_loss"] <= expected["final_loss"] * (1 + expected["tolerance"])
         for name, entry in expected["parameters"].items():
-            low, high = entry["ci95"]
+            low, high = entry["interval"]
             if entry["determined"]:
                 assert low <= found["parameters"][name]["value"] <= high, name

@@ -17,7 +17,7 @@ def test_tiny_report_end_to_end(workflow):
     params = json.loads((root / "fit/params.json").read_text())
     assert params["convention"] == "rheo" and list(params["parameters"]) == ["mu", "lam", "tau_y", "K", "n"]
     for name, entry in params["parameters"].items():
-        low, high = entry["ci95"]
+        low, high = entry["interval"]
         assert low <= entry["value"] <= high, name
         assert isinstance(entry["determined"], bool) and "truth" in entry and "error" in entry, name
     assert params["parameters"]["tau_y"]["initial"] == 10.0  # the configured guess, never the truth

@@ -24,9 +24,9 @@ def test_a_setup_is_imported_and_fitted(workflow):
     assert setup["camera_check"]["cuboid_on_silhouette"] > 0.95
     fit = json.loads((workflow.root / "results/virheometry/Carbonara/fit_setup2/params.json").read_text())
     for key in ("tau_y_Pa", "K_Pa_s_n", "n"):
-        low, high = fit[key]["ci95"]
+        low, high = fit[key]["interval"]
         assert low <= fit[key]["value"] <= high and isinstance(fit[key]["determined"], bool)
-        assert not (any(fit[key]["ci95_open"]) and fit[key]["determined"])  # an open interval bounds nothing
+        assert not (any(fit[key]["interval_open"]) and fit[key]["determined"])  # an open interval bounds nothing
     spread = fit["within_tolerance"]
     assert spread["evaluations"] >= 1 and isinstance(spread["ridge"], bool)
     for key in ("tau_y_Pa", "K_Pa_s_n", "n"):
@@ -59,9 +59,10 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
     for i, material in enumerate(materials):
         fit_dir = workflow.root / f"results/virheometry/{material}/fit"
         fit_dir.mkdir(parents=True)
-        law = {key: {"value": value * (1 + i), "ci95": [value, value * (2 + i)], "determined": i % 2 == 0,
-                     "ci95_open": [False, i == 3]} for key, value in (("tau_y_Pa", 10.0), ("K_Pa_s_n", 1.0))}
-        law["n"] = {"value": 0.5 + 0.05 * i, "ci95": [0.4, 1.5], "determined": True, "ci95_open": [False, False]}
+        law = {key: {"value": value * (1 + i), "interval": [value, value * (2 + i)], "determined": i % 2 == 0,
+                     "interval_open": [False, i == 3]} for key, value in (("tau_y_Pa", 10.0), ("K_Pa_s_n", 1.0))}
+        law["n"] = {"value": 0.5 + 0.05 * i, "interval": [0.4, 1.5], "determined": True,
+                    "interval_open": [False, False]}
         (fit_dir / "params.json").write_text(json.dumps({
             **law, "setups": {"a": {"silhouette_iou": [0.9, 0.96]}, "b": {"silhouette_iou": [0.98]}},
             "shear_rate_band_per_s": [0.1 * (i + 1), 20.0], "within_tolerance": {"ridge": i == 5},
