@@ -8,8 +8,9 @@ import numpy as np
 
 from rheo.experiments.rheometer import read_flow_curve
 from rheo.fit.dam_break import RESULT_KEYS
+from rheo.fit.uncertainty import Interval, log_draws
 from rheo.io import read_json, write_text_atomic
-from rheo.report.fit import interval_text
+from rheo.report.fit import headline, interval_text
 from rheo.report.html import figure_tag, image_tag, page, table_tag
 from rheo.report.virheometry import flow_figure, rheometer_comparison
 from rheo.stage import start_stage
@@ -39,22 +40,19 @@ band = params["shear_rate_band_per_s"]
 reached = "none: nothing moved" if band is None else f"{band[0]:.3g}-{band[1]:.3g} 1/s"
 curves = [read_flow_curve(p) for p in smk.input.rheometer]
 law = tuple(params[k]["value"] for k in KEYS)
-tolerated_laws = np.array(params["within_tolerance"]["laws"])
+# the band: curves of materials drawn within the tolerance intervals, as on an experiment's report
+draws = np.exp(log_draws([Interval(params[k]["value"], *params[k]["interval"]) for k in KEYS]))
 comparison = ""
 if curves and band is not None:
     comparison, errors = rheometer_comparison({"recovered": law}, curves, band)
     for name, error in errors.items():
         log.info("%s: RMS log10 error %.3f over %.3g-%.3g 1/s", name, error["recovered"], *band)
-flow = flow_figure(law, tolerated_laws, band, curves, envelope=True)
+flow = flow_figure(law, draws, band, curves)
 flow.savefig(smk.output.flow_curve, dpi=110, bbox_inches="tight")
-undetermined = [label for key, label in KEYS.items() if not params[key]["determined"]]
-headline = ("<p class='headline'><b>Recovered law</b> (tolerance intervals in brackets): "
-            + ", ".join(f"{label} = {params[key]['value']:.3g} {interval_text(params[key])}"
-                        for key, label in KEYS.items())
-            + (f". The recordings do not determine {', '.join(undetermined)}." if undetermined else
-               ". The recordings determine all three.") + "</p>")
+headline_text = headline({name: params[key] for name, key in RESULT_KEYS.items()}, subject="recordings")
 sections = [("Flow curve", figure_tag(flow, "recovered law, shear stress (Pa) against shear rate (1/s); band: the "
-                                            "curves of every evaluated material within the tolerance of the best"
+                                            "middle 95 % of the curves of materials drawn within the tolerance "
+                                            "intervals (coverage not calibrated)"
                                             + ("; the rheometer's curves where there are some" if curves else ""))
              + comparison),
             ("Recovered law", table_tag(["parameter", "value", "tolerance interval", "determined"], law_rows(params))
@@ -81,5 +79,5 @@ if smk.input.single:
     sections.append(("One setup against both", table_tag(header, rows)))
 sections.append(("Camera checks", "".join(image_tag(Path(p).read_bytes(), "png", Path(p).parent.name)
                                           for p in smk.input.camera_checks)))
-body = headline + "".join(f"<h2>{title}</h2>{content}" for title, content in sections)
+body = headline_text + "".join(f"<h2>{title}</h2>{content}" for title, content in sections)
 write_text_atomic(smk.output.report, page(f"{material}: Herschel-Bulkley law from dam breaks", body))

@@ -70,17 +70,14 @@ def training_figure(history: list[dict], names: list[str], truth: dict[str, floa
     return fig
 
 
-def flow_curve_figure(tau_y: float, K: float, n: float, samples: np.ndarray | None, truth: tuple | None = None,
-                      envelope: bool = False):
-    """tau(gamma_dot) = tau_y + K gamma_dot^n with the band of ``samples``' middle 95 % (rows of tau_y, K, n), or with
-    ``envelope`` the range of their curves (materials that fit equally well)."""
+def flow_curve_figure(tau_y: float, K: float, n: float, samples: np.ndarray | None, truth: tuple | None = None):
+    """tau(gamma_dot) = tau_y + K gamma_dot^n with the band of ``samples``' middle 95 % (rows of tau_y, K, n)."""
     rate = np.logspace(-2, 3, 200)
     fig, ax = plt.subplots(figsize=(5.5, 3.8))
     if samples is not None and len(samples):
         curves = samples[:, :1] + samples[:, 1:2] * rate[None, :] ** samples[:, 2:3]
-        label = "materials within the tolerance" if envelope else "tolerance band"
-        ax.fill_between(rate, *np.percentile(curves, [0, 100] if envelope else [2.5, 97.5], axis=0),
-                        color="tab:blue", alpha=0.2, label=label)
+        ax.fill_between(rate, *np.percentile(curves, [2.5, 97.5], axis=0), color="tab:blue", alpha=0.2,
+                        label="tolerance band")
     ax.plot(rate, tau_y + K * rate**n, color="tab:blue", label="recovered")
     if truth is not None:
         ax.plot(rate, truth[0] + truth[1] * rate ** truth[2], "--", color="tab:green", label="truth")
@@ -146,19 +143,23 @@ def parameter_rows(params: dict) -> tuple[list[str], list[list[str]], list[str]]
 UNITS = {"mu": "Pa", "lam": "Pa", "sigma_y": "Pa", "eta": "Pa s", "tau_y": "Pa", "K": "Pa s^n", "n": ""}
 
 
-def headline(params: dict) -> str:
-    """The result in a sentence: the law with its intervals, and what the recording does not determine."""
-    hb = params["parameters"]
-    law = ", ".join(f"{SYMBOLS.get(k, k)} = {hb[k]['value']:.3g}{' ' + UNITS[k] if UNITS[k] else ''} "
-                    f"{interval_text(hb[k])}{' (held at its guess)' if hb[k].get('held_at_initial_guess') else ''}"
-                    for k in hb if k not in ("mu", "lam"))
-    undetermined = [SYMBOLS.get(k, k) for k, p in hb.items() if not p["determined"]]
-    rest = (f" The recording does not determine {', '.join(undetermined)}: the loss barely changes along "
-            f"{'it' if len(undetermined) == 1 else 'them'}." if undetermined else
-            " The recording determines every parameter.")
-    return (f"<p class='headline'><b>Recovered law</b> (tolerance intervals in brackets): {html.escape(law)}; "
-            f"elastic constants μ = {hb['mu']['value']:.3g} Pa, λ = {hb['lam']['value']:.3g} Pa."
-            f"{html.escape(rest)}</p>")
+def headline(parameters: dict[str, dict], subject: str = "recording") -> str:
+    """The result in a sentence: the law with its intervals, the elastic constants where they were fitted, and what
+    the ``subject`` does not determine."""
+    law = ", ".join(f"{SYMBOLS.get(k, k)} = {p['value']:.3g}{' ' + UNITS[k] if UNITS[k] else ''} "
+                    f"{interval_text(p)}{' (held at its guess)' if p.get('held_at_initial_guess') else ''}"
+                    for k, p in parameters.items() if k not in ("mu", "lam"))
+    elastic = ""
+    if "mu" in parameters:
+        mu, lam = parameters["mu"]["value"], parameters["lam"]["value"]
+        elastic = f"; elastic constants μ = {mu:.3g} Pa, λ = {lam:.3g} Pa"
+    undetermined = [SYMBOLS.get(k, k) for k, p in parameters.items() if not p["determined"]]
+    plural = subject.endswith("s")
+    rest = (f" The {subject} {'do' if plural else 'does'} not determine {', '.join(undetermined)}: the loss barely "
+            f"changes along {'it' if len(undetermined) == 1 else 'them'}." if undetermined else
+            f" The {subject} {'determine' if plural else 'determines'} every parameter.")
+    return (f"<p class='headline'><b>Recovered law</b> (tolerance intervals in brackets): {html.escape(law)}"
+            f"{elastic}.{html.escape(rest)}</p>")
 
 
 def render(name: str, params: dict, sections: list[tuple[str, str]], config: dict,
@@ -166,7 +167,7 @@ def render(name: str, params: dict, sections: list[tuple[str, str]], config: dic
     """The page: the result in a sentence, its flow curve and the parameter table first, then each (heading, html)
     section, the runtimes and the configuration (folded)."""
     header, rows, classes = parameter_rows(params["parameters"])
-    body = [headline(params), flow_curve, table_tag(header, rows, classes),
+    body = [headline(params["parameters"]), flow_curve, table_tag(header, rows, classes),
             f"<p>Tolerance interval: each parameter's range over the materials whose loss lies within "
             f"{params['tolerance']:.0%} of the best fit's (the fit model's own error; coverage not calibrated), from "
             "the surface fitted to the loss around the estimate, trade-offs between parameters included, each end "

@@ -94,10 +94,10 @@ def rheometer_comparison(laws: dict[str, tuple[float, float, float]], curves: li
 
 
 def flow_figure(law: tuple[float, float, float], samples: np.ndarray, band: tuple[float, float] | None,
-                curves: list[FlowCurve], envelope: bool = False):
+                curves: list[FlowCurve]):
     """The recovered flow curve with its band (``flow_curve_figure``), the shear rates the flow reached and the
     rheometer's points."""
-    fig = flow_curve_figure(*law, samples, envelope=envelope)
+    fig = flow_curve_figure(*law, samples)
     ax = fig.axes[0]
     if band is not None:
         ax.axvspan(*band, color="0.85", zorder=0, label="shear rates reached")

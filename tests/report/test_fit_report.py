@@ -45,6 +45,6 @@ def test_a_real_recordings_table_has_no_truth_and_the_headline_says_what_is_not_
         del p["truth"], p["error"]
     header, rows, _ = parameter_rows(fitted)
     assert "truth" not in header and "error" not in header and len(rows[0]) == len(header)
-    text = headline({"parameters": fitted})
+    text = headline(fitted)
     assert "τ_y = 36.4 Pa [18.2, 72.8]" in text and "K = 0.0575 Pa s^n" in text and "n = 1.13 [0.565, 2.26]" in text
     assert "does not determine K" in text
