@@ -33,6 +33,8 @@ def spread_text(fit: dict) -> str:
     verdict = ("the recordings leave the law on a ridge: materials far apart fit them equally well"
                if spread["ridge"] else "no ridge")
     alone = "; one setup only" if len(fit["setups"]) == 1 else ""
+    if spread["evaluations"] == 1:
+        return f"Of the evaluated materials only the best lies within the tolerance ({verdict}{alone})"
     return f"{spread['evaluations']} evaluated materials within the tolerance: {ranges} ({verdict}{alone})"
 
 
