@@ -127,4 +127,7 @@ def confusion_section(truths: list[str], named: list[str], labels: list[str]) ->
     counts = [[str(sum(1 for t, n in zip(truths, named, strict=True) if t == row and n == col)) for col in labels]
               for row in labels]
     return (table_tag(["concealed \\ named", *labels], [[row, *c] for row, c in zip(labels, counts, strict=True)])
-            + figure_tag(confusion_figure(truths, named, labels), "confusion table"))
+            + figure_tag(confusion_figure(truths, named, labels),
+                         "cases by the effect concealed in the recording (rows) and the one the diagnosis named "
+                         "(columns): a correct diagnosis lies on the diagonal; outside: an effect no candidate "
+                         "models, for which none is the right answer"))
