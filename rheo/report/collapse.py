@@ -38,7 +38,7 @@ def _comparison_plot(rows: list[dict], x: str, xlabel: str, title: str):
     ax.plot(xs, [r["rheo_height"] for r in rows], "s--", label="rheo")
     ax.set_xscale("log")
     ax.set_xlabel(xlabel)
-    ax.set_ylabel("height at t = 1 s")
+    ax.set_ylabel("height at t = 1 s (m)")
     ax.set_title(title)
     ax.legend()
     ax.grid(alpha=0.3)
@@ -50,7 +50,7 @@ def _history_plot(rows: list[dict], label: str, title: str):
     for r in rows:
         ax.plot(r["times"], r["heights"], label=f"{label} = {r[label]:g}")
     ax.set_xlabel("t (s)")
-    ax.set_ylabel("height")
+    ax.set_ylabel("height (m)")
     ax.set_title(title)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
@@ -71,20 +71,21 @@ def render(table_41: list[dict], table_42: list[dict], calibration: dict, tolera
                             for c in calibration["candidates"]])
     within = sum(abs(r["relative_difference"]) <= tolerance for r in table_41 + table_42)
     body = (
-        f"<p>Cylinder of radius 0.2 and height 0.4, density 1000, gravity 9.8, on a sticky floor wide enough that no "
-        f"pile reaches the domain walls; height = top of the material at t = 1 s. The thesis' (sigma_y, eta) are "
+        f"<p>Cylinder of radius 0.2 m and height 0.4 m, density 1000 kg/m^3, gravity 9.8 m/s^2, on a sticky floor wide "
+        f"enough that no pile reaches the domain walls; height = top of the material at t = 1 s (m). The thesis' "
+        f"(sigma_y in Pa, eta in Pa s) are "
         f"PAC-NeRF's convention and enter rheo "
         f"as tau_y = sigma_y / sqrt(3), K = eta / 2. Elastic constants calibrated on Table 4.1 only: "
         f"mu = {calibration['mu']:g} Pa, lam = {calibration['lam']:g} Pa; Table 4.2 is predicted with no further "
         f"tuning. {within} of {len(table_41) + len(table_42)} rows lie within {100 * tolerance:.0f} %.</p>"
         "<h2>Table 4.1: varying sigma_y (eta = 10)</h2>"
-        + table_tag(["sigma_y", "thesis", "rheo", "difference"], t41, c41)
+        + table_tag(["sigma_y (Pa)", "thesis (m)", "rheo (m)", "difference"], t41, c41)
         + "<h2>Table 4.2: varying eta / sigma_y (sigma_y = 1000), predicted</h2>"
-        + table_tag(["eta / sigma_y", "thesis", "rheo", "difference"], t42, c42)
+        + table_tag(["eta / sigma_y (s)", "thesis (m)", "rheo (m)", "difference"], t42, c42)
         + "<h2>Figures 4.2 and 4.4</h2>"
-        + figure_tag(_comparison_plot(table_41, "sigma_y", "sigma_y", "Figure 4.2: height vs sigma_y"),
+        + figure_tag(_comparison_plot(table_41, "sigma_y", "sigma_y (Pa)", "Figure 4.2: height vs sigma_y"),
                      "Height at t = 1 s against sigma_y: thesis and rheo")
-        + figure_tag(_comparison_plot(table_42, "eta_over_sigma_y", "eta / sigma_y",
+        + figure_tag(_comparison_plot(table_42, "eta_over_sigma_y", "eta / sigma_y (s)",
                                       "Figure 4.4: height vs eta / sigma_y"),
                      "Height at t = 1 s against eta / sigma_y: thesis and rheo")
         + "<h2>Height over time</h2>"
