@@ -1,7 +1,7 @@
-"""The virtual lab's renderer: shaded particle splats over a textured floor with a cast shadow, a backdrop and
-sensor noise, through a distorted pinhole camera. It shares nothing with the fit's renderer: slits between splats
-narrower than two particle spacings are closed, the splats' nearest depth in each pixel, smoothed, gives the surface's
-normals for shading, and the floor is ray-cast.
+"""The virtual lab's renderer: the material's particles as discs, shaded as the surface they sample, over a textured
+floor with a cast shadow, a backdrop and sensor noise, through a distorted pinhole camera. It shares nothing with the
+fit's renderer: slits between discs narrower than two particle spacings are closed, the discs' nearest depth in each
+pixel, smoothed, gives the surface's normals for shading, and the floor is ray-cast.
 """
 
 from __future__ import annotations
