@@ -355,7 +355,7 @@ class _Buffers:
         # eigen-decompositions of the trial strain, inputs of the plastic return (constants for the tape)
         self.eig_q = [wp.zeros(n, dtype=k.mat33) for _ in range(grids)]
         # the first step's guess of the decomposition's basis (a rollout starts from it, whatever ran before)
-        self.identity = wp.array(np.broadcast_to(np.eye(3), (n, 3, 3)), dtype=k.mat33)
+        self.identity = wp.array(np.ascontiguousarray(np.broadcast_to(np.eye(3), (n, 3, 3))), dtype=k.mat33)
         self.eig_l = [wp.zeros(n, dtype=k.vec3) for _ in range(grids)]
         self.m = alloc(grids, (res, res, res), s)
         self.mv = alloc(grids, (res, res, res), k.vec3)
