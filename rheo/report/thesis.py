@@ -46,7 +46,9 @@ def recovery_table(rows: list[dict]) -> str:
                       "-" if r["thesis"] is None else f"{r['thesis']:.4g}", _percent(r["thesis_error"]),
                       f"{r['rheo']:.4g}{status}", r["interval"],
                       "not recovered" if r["held"] else _percent(r["rheo_error"])])
-        better = r["rheo_error"] is not None and r["thesis_error"] is not None and r["rheo_error"] <= r["thesis_error"]
+        # green only where the recording determines our value: an undetermined one near the truth is luck
+        better = (r["determined"] and r["rheo_error"] is not None and r["thesis_error"] is not None
+                  and r["rheo_error"] <= r["thesis_error"])
         classes.append("good" if better else "bad")
     return table_tag(header, cells, classes)
 
@@ -74,7 +76,8 @@ def error_figure(tables: list[tuple[str, list[dict]]]):
 def collapse_table(rows: list[dict], table: str) -> str:
     first = "sigma_y" if table == "4.1" else "eta_over_sigma_y"
     picked = [r for r in rows if r["table"] == table]
-    return table_tag([first.replace("_over_", " / "), "thesis height", "rheo height", "difference"],
+    unit = "Pa" if table == "4.1" else "s"
+    return table_tag([f"{first.replace('_over_', ' / ')} ({unit})", "thesis height (m)", "rheo height (m)", "difference"],
                      [[f"{float(r[first]):g}", f"{float(r['thesis_height']):.5f}", f"{float(r['rheo_height']):.5f}",
                        f"{100 * float(r['relative_difference']):+.1f} %"] for r in picked])
 
@@ -82,7 +85,8 @@ def collapse_table(rows: list[dict], table: str) -> str:
 def render(tables: list[tuple[str, str, list[dict]]], collapse: list[dict]) -> str:
     """``tables``: (thesis table name, title, rows) per recovery table; ``collapse``: the rows of collapse.csv."""
     body = ["<p>Inverse experiments rebuilt from our runs of the thesis' virtual experiments with the thesis' "
-            "initial guesses (rows in green: our error at most the thesis'). Intervals: the materials whose loss "
+            "initial guesses (rows in green: determined by the recording, our error at most the thesis'). Intervals: "
+            "the materials whose loss "
             "lies within the fit model's tolerance of the best fit's; a parameter the recording does not determine "
             "is flagged, and held at its initial guess where that lies inside its interval.</p>",
             figure_tag(error_figure([(f"Table {name}: {title}", rows) for name, title, rows in tables]),
