@@ -74,10 +74,9 @@ def error_figure(tables: list[tuple[str, list[dict]]]):
 
 
 def collapse_table(rows: list[dict], table: str) -> str:
-    first = "sigma_y" if table == "4.1" else "eta_over_sigma_y"
+    first, label = ("sigma_y", "sigma_y (Pa)") if table == "4.1" else ("eta_over_sigma_y", "eta / sigma_y (s)")
     picked = [r for r in rows if r["table"] == table]
-    unit = "Pa" if table == "4.1" else "s"
-    return table_tag([f"{first.replace('_over_', ' / ')} ({unit})", "thesis height (m)", "rheo height (m)", "difference"],
+    return table_tag([label, "thesis height (m)", "rheo height (m)", "difference"],
                      [[f"{float(r[first]):g}", f"{float(r['thesis_height']):.5f}", f"{float(r['rheo_height']):.5f}",
                        f"{100 * float(r['relative_difference']):+.1f} %"] for r in picked])
 
