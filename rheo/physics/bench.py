@@ -22,12 +22,11 @@ import time
 from pathlib import Path
 
 import torch
-import warp as wp
 
 from rheo.geometry.sampling import cylinder
 from rheo.io import write_json_atomic
 from rheo.physics import Floor, HerschelBulkley, Simulator
-from rheo.physics.simulator import DEVICES, resolve_device, set_default_device
+from rheo.physics.simulator import DEVICES, device_name, set_default_device
 
 MATERIAL = HerschelBulkley.from_pacnerf(sigma_y=1000.0, eta=10.0, mu=1.0e4, lam=1.0e4)
 DT = 1e-3
@@ -69,12 +68,6 @@ def measure_rollout(steps: int) -> dict:
     peak_kb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     return {"steps": steps, "particles": len(x0), "grid": 32, "seconds": round(time.perf_counter() - start, 1),
             "peak_rss_mb": round(peak_kb / 1024, 1), "checkpoint_mb": sim.checkpoint_mb}
-
-
-def device_name(device: str) -> str:
-    """The device a simulator built for ``device`` runs on, as Warp names it ("cpu", or "cuda:0 (<GPU model>)")."""
-    resolved = resolve_device(device)
-    return resolved if resolved == "cpu" else f"{resolved} ({wp.get_device(resolved).name})"
 
 
 def main(argv: list[str] | None = None) -> None:
