@@ -1,12 +1,13 @@
 """virheometry_fit: tau_y, K and n (or tau_y and K at a fixed flow index) of one material from its dam breaks (all
 its setups jointly, or one), with the first frame's time after the release found for each setup. With the flow
-index free, a line search of the stress at a shear rate typical of the flow, then searches of tau_y and K at a few
-flow indices from that stress (each keeping it at first); with the flow index fixed, a survey of the box instead.
+index free, a line search of the stress at a shear rate typical of the flow, then searches of tau_y and K at a row of
+flow indices from that stress (each keeping it at first), whose best losses are the flow index's profile; with the
+flow index fixed, a survey of the box instead.
 Simplex searches from the survey's best points side by side (with the flow index fixed), then
 rounds of a composite design around the best, each followed by a quadratic fitted to the squared losses
 (rheo.fit.surface): its lowest point, or the best law evaluated where that loses less, is the estimate, and the
-region where it stays within the tolerance gives the intervals. Each evaluation simulates the setups side by side,
-the survey's and the designs' points two at a time.
+region where it stays within the tolerance gives the intervals, n's grown to where its profile stays within it.
+Each evaluation simulates the setups side by side, the survey's and the designs' points two at a time.
 Every evaluation is stored, so an interrupted fit resumes."""
 
 import csv
@@ -22,13 +23,14 @@ from rheo.fit.dam_break import (
     MOVING_RATE,
     RESULT_KEYS,
     comparisons,
-    flow_index_starts,
+    flow_index_profile,
     setup_files,
     shear_rate_band,
     stress_level,
 )
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, estimate, start_step, survey_points
+from rheo.fit.uncertainty import grown_to_profile
 from rheo.io import json_number, write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import frames_figure
@@ -71,8 +73,8 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
     searched_flow_indices = law.n is None and bool(settings["flow_index_searches"])
     if searched_flow_indices:
         log_stress = stress_level(evaluate_many, settings["stress_rate"], (low, high), settings["stress_evaluations"])
-        found = flow_index_starts(evaluate_many, log_stress, settings["flow_index_searches"], settings["stress_rate"],
-                                  settings["flow_index_evaluations"], (low, high))
+        found = flow_index_profile(evaluate_many, log_stress, settings["flow_index_searches"],
+                                   settings["stress_rate"], settings["flow_index_evaluations"], (low, high))
         # the surface is centred on the searches' best law, without simplex searches
         simplex_evaluations, step = 0, 0.0
     else:
@@ -103,6 +105,15 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
                       rounds=settings["rounds"], tolerance=settings["tolerance"], box=(low, high), side_by_side=True,
                       evaluate_estimate=evaluate_estimate)
     x, loss, intervals = result.log_values, result.loss, result.intervals
+    profile_record = None
+    if searched_flow_indices:
+        by_index = sorted(found, key=lambda f: f[0][2])
+        for law_x, value in by_index:
+            log.info("flow-index profile: loss %.5g px at %s", value, describe(law_x))
+        profile_record = {key: [float(np.exp(law_x[i])) for law_x, _ in by_index]
+                          for i, key in enumerate(RESULT_KEYS.values())} | {"loss_px": [v for _, v in by_index]}
+        intervals["n"] = grown_to_profile(intervals["n"], profile_record["n"], profile_record["loss_px"],
+                                          (1.0 + settings["tolerance"]) * loss)
     log.info("estimate: loss %.5g px, %s", loss, describe(x))
     details = simulated.get(tuple(x)) or simulate(x)
 bar.close()
@@ -136,6 +147,7 @@ write_json_atomic(output, {
                          **{RESULT_KEYS[n]: np.exp(r).tolist() for n, r in zip(names, spread.ranges, strict=True)},
                          "spread_direction_log": None if spread.direction is None
                          else dict(zip(names, spread.direction.tolist(), strict=True))},
+    "flow_index_profile": profile_record,
     "shear_rate_band_per_s": band, "loss_px": loss, "evidence": result.evidence["all_free"],
     "tolerance": settings["tolerance"],
     "elastic_constants_Pa": {"mu": simulation["mu"], "lam": simulation["lam"]},

@@ -12,7 +12,7 @@ from rheo.fit.uncertainty import Interval, log_draws
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import headline, interval_text
 from rheo.report.html import figure_tag, image_tag, page, table_tag
-from rheo.report.virheometry import flow_figure, rheometer_comparison
+from rheo.report.virheometry import flow_figure, flow_index_profile_figure, rheometer_comparison
 from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -70,6 +70,17 @@ sections = [("Flow curve", figure_tag(flow, "recovered law, shear stress (Pa) ag
                                    f"{np.mean(s['silhouette_iou']):.3f}", f"{np.mean(s['outflow_iou']):.3f}"]
                                   for name, s in params["setups"].items()])
              + image_tag(Path(smk.input.frames).read_bytes(), "png", "recorded and simulated silhouettes"))]
+profile = params.get("flow_index_profile")
+if profile and len(profile["n"]) > 1:
+    level = (1.0 + params["tolerance"]) * params["loss_px"]
+    seen = [f"{n:.2g}" for n, loss in zip(profile["n"], profile["loss_px"], strict=True) if loss <= level]
+    figure = flow_index_profile_figure(profile, level, params["n"]["interval"], band, curves)
+    sections.insert(2, ("Flow index", figure_tag(figure, "left: the lowest loss found at each searched flow index, "
+                                                         "tau_y and K searched at each; right: those laws' flow curves "
+                                                         "(dotted: beyond the tolerance)")
+                        + f"<p>Within the tolerance of the best: {'n ' + ', '.join(seen) if seen else 'none'} of the "
+                        f"{len(profile['n'])} searched. n's interval reaches over where the profile, taken linear in "
+                        f"log n between them, stays within it.</p>"))
 if smk.input.single:
     header = ["fit", *[f"{label} tolerance interval (width, factor)" for label in KEYS.values()],
               "evaluated materials within the tolerance"]

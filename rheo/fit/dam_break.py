@@ -243,7 +243,7 @@ def stress_level(evaluate_many: EvaluateMany, rate: float, box: tuple[np.ndarray
     return float(result.x)
 
 
-def flow_index_starts(evaluate_many: EvaluateMany, log_stress: float, flow_indices: Sequence[float], rate: float,
+def flow_index_profile(evaluate_many: EvaluateMany, log_stress: float, flow_indices: Sequence[float], rate: float,
                       evaluations: int, box: tuple[np.ndarray, np.ndarray]) -> list[tuple[np.ndarray, float]]:
     """A search of tau_y and K at each of ``flow_indices`` (phases "n <value>", side by side), each from the law of
     that index with the stress exp(``log_stress``) at ``rate`` (``stress_level``'s) split evenly between yield and

@@ -40,6 +40,29 @@ class Interval:
         return float(np.log(self.high / self.low) / (2 * Z95))
 
 
+def grown_to_profile(interval: Interval, values: Sequence[float], losses: Sequence[float],
+                     level: float) -> Interval:
+    """``interval`` grown to hold where the parameter's profile (the lowest loss found at each of ``values``, the
+    other parameters free) lies within ``level``, the profile taken linear in the parameter's logarithm between
+    values; an end is open where the profile is still within the level at the first or last value."""
+    order = np.argsort(values)
+    x, y = np.log(np.asarray(values, dtype=float)[order]), np.asarray(losses, dtype=float)[order]
+    within = np.flatnonzero(y <= level)
+    if len(x) < 2 or not len(within):
+        return interval
+
+    def crossing(inside: int, outside: int) -> float:
+        return float(np.exp(x[inside] + (level - y[inside]) / (y[outside] - y[inside]) * (x[outside] - x[inside])))
+
+    first, last = int(within[0]), int(within[-1])
+    low = float(np.exp(x[0])) if first == 0 else crossing(first, first - 1)
+    high = float(np.exp(x[-1])) if last == len(x) - 1 else crossing(last, last + 1)
+    return dataclasses.replace(
+        interval, low=min(interval.low, low), high=max(interval.high, high),
+        open=(interval.open[0] if interval.low < low else interval.open[0] or first == 0,
+              interval.open[1] if interval.high > high else interval.open[1] or last == len(x) - 1))
+
+
 def log_draws(intervals: Sequence[Interval], count: int = 400, seed: int = 0, clip: float = 4.0) -> np.ndarray:
     """(count, parameters) draws of the log-parameters, independent normals whose central 95 % are the
     ``intervals``, clipped to ``clip`` log units (a factor e^4, about 55) of each value: an undetermined parameter's

@@ -131,3 +131,41 @@ def summary_figure(laws: dict[str, tuple[tuple[float, float, float], tuple[float
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return fig
+
+
+def flow_index_profile_figure(profile: dict[str, list[float]], level: float, n_interval: tuple[float, float],
+                              band: tuple[float, float] | None, curves: list[FlowCurve]):
+    """Left, the flow index's profile (each searched index's best loss) against the tolerance's level and n's
+    interval; right, those laws' flow curves (solid where within the level) with the rheometer's points."""
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 4), layout="constrained")
+    n, loss = np.array(profile["n"]), np.array(profile["loss_px"])
+    within = loss <= level
+    left.axvspan(*n_interval, color="0.88", label="n's tolerance interval")
+    left.plot(n, loss, "-", color="0.4")
+    left.plot(n[within], loss[within], "o", color="C0", label="within the tolerance")
+    left.plot(n[~within], loss[~within], "o", mfc="none", color="C3", label="beyond it")
+    left.axhline(level, ls="--", color="0.3", lw=1, label="tolerance level")
+    left.set_xscale("log")
+    left.set_xticks(n, [f"{v:.2g}" for v in n])
+    left.minorticks_off()
+    left.set_xlabel("flow index n")
+    left.set_ylabel("best loss at n (px)")
+    left.legend(fontsize=7)
+    rate = np.logspace(-1, 2.5, 120)
+    if band is not None:
+        right.axvspan(*band, color="0.9", zorder=0, label="shear rates reached")
+    colours = plt.cm.viridis(np.linspace(0.0, 0.9, len(n)))
+    for tau_y, K, index, inside, colour in zip(profile["tau_y_Pa"], profile["K_Pa_s_n"], n, within, colours,
+                                               strict=True):
+        right.plot(rate, tau_y + K * rate**index, "-" if inside else ":", color=colour, lw=1.5 if inside else 1,
+                   label=f"n {index:.2g}")
+    for curve, marker in zip(curves, "os^v", strict=False):
+        right.plot(curve.shear_rate, curve.stress, marker, ms=3, mfc="none", color="0.3",
+                   label=f"rheometer {curve.temperature:.0f} C")
+    right.set_xscale("log")
+    right.set_yscale("log")
+    right.set_xlim(rate[0], rate[-1])
+    right.set_xlabel("shear rate (1/s)")
+    right.set_ylabel("shear stress (Pa)")
+    right.legend(fontsize=6, ncol=2)
+    return fig

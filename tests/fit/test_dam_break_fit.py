@@ -10,7 +10,7 @@ from rheo.fit.dam_break import (
     OFFSET_STEP,
     DamBreakTarget,
     compare_law,
-    flow_index_starts,
+    flow_index_profile,
     from_stress_split,
     shear_rates,
     skin,
@@ -123,7 +123,7 @@ def test_the_stress_search_and_flow_index_searches_find_the_deeper_basin_along_t
     assert np.exp(log_stress) == pytest.approx(20.0, rel=0.05)
     assert set(phases) == {"stress"} and len(phases) <= 9
     phases.clear()
-    found = flow_index_starts(evaluate_many, log_stress, [0.4, 0.7, 1.0, 1.4], rate, 12, box)
+    found = flow_index_profile(evaluate_many, log_stress, [0.4, 0.7, 1.0, 1.4], rate, 12, box)
     assert [np.exp(x[2]) for x, _ in found] == pytest.approx([0.4, 0.7, 1.0, 1.4])
     (x, value), = [f for f in found if np.exp(f[0][2]) == pytest.approx(1.0)]
     assert value < 0.0285 and min(v for _, v in found) == value

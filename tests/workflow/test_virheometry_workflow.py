@@ -10,14 +10,15 @@ import json
 def test_a_setup_is_imported_and_fitted(workflow):
     (workflow.root / "quick.yaml").write_text(
         "virheometry:\n  simulation: {cells_per_height: 4, cells_across: 4, max_offset: 0.05}\n"
-        "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1, flow_index_searches: [1.0],\n"
+        "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1, flow_index_searches: [0.7, 1.0],\n"
         "        flow_index_evaluations: 2, stress_evaluations: 2}\n")
     run = workflow.run("results/virheometry/Carbonara/fit_setup2/params.json",
                        "results/virheometry/Carbonara/report.html", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
     # the material's page leads with its law and the flow curve, which is also a figure of its own
     page = (workflow.root / "results/virheometry/Carbonara/report.html").read_text()
-    assert page.index("Recovered law") < page.index("<h2>Flow curve") < page.index("<h2>Setups")
+    assert page.index("Recovered law") < page.index("<h2>Flow curve") < page.index("<h2>Flow index") \
+        < page.index("<h2>Setups")
     assert (workflow.root / "results/virheometry/Carbonara/flow_curve.png").stat().st_size > 10_000
     setup = json.loads((workflow.root / "results/virheometry/setups/ref_Carbonara_2.0_2.5_2/setup.json").read_text())
     assert setup["units"].startswith("SI") and setup["height"] == 0.02 and setup["frames"] == 8
@@ -27,6 +28,13 @@ def test_a_setup_is_imported_and_fitted(workflow):
         low, high = fit[key]["interval"]
         assert low <= fit[key]["value"] <= high and isinstance(fit[key]["determined"], bool)
         assert not (any(fit[key]["interval_open"]) and fit[key]["determined"])  # an open interval bounds nothing
+    # n's profile: the best loss at each searched index, none below the estimate's; n's interval holds every index
+    # whose best law lies within the tolerance
+    profile = fit["flow_index_profile"]
+    assert profile["n"] == [0.7, 1.0] and min(profile["loss_px"]) >= fit["loss_px"]
+    for n, loss in zip(profile["n"], profile["loss_px"], strict=True):
+        if loss <= (1.0 + fit["tolerance"]) * fit["loss_px"]:
+            assert fit["n"]["interval"][0] <= n <= fit["n"]["interval"][1]
     spread = fit["within_tolerance"]
     assert spread["evaluations"] >= 1 and isinstance(spread["ridge"], bool)
     for key in ("tau_y_Pa", "K_Pa_s_n", "n"):
@@ -37,7 +45,7 @@ def test_a_setup_is_imported_and_fitted(workflow):
     assert (workflow.root / "results/virheometry/Carbonara/fit_setup2/frames.png").stat().st_size > 0
     with open(workflow.root / "results/virheometry/Carbonara/fit_setup2/history.csv") as f:
         phases = {row["phase"] for row in csv.DictReader(f)}
-    assert {"stress", "n 1"} <= phases  # the stress search and the search of tau_y and K at the flow index ran
+    assert {"stress", "n 0.7", "n 1"} <= phases  # the stress search and the searches at each flow index ran
     assert not list((workflow.root / "results/virheometry/Carbonara/fit_setup2").glob("*.evaluations.json"))
 
 
