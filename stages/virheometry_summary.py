@@ -32,8 +32,8 @@ for material, path, report in zip(smk.params.materials, smk.input.params, smk.in
     links.append(link_tag(str(Path(report).relative_to(output.parent)), material))
 body = (table_tag(["material", "tau_y (Pa) [tolerance]", "K (Pa s^n) [tolerance]", "n [tolerance]",
                    "mean IoU per setup", "shear rates reached (1/s)", "ridge", "runtime (min)"], rows)
-        + "<p>* not determined by the recordings (tolerance interval wider than a factor 4, or open: < or >, the "
-          "materials within the tolerance go on past the fit's reach). Ridge: the evaluated "
+        + "<p>* not determined by the recordings (tolerance interval wider than a factor 4, for n 1.5, or open: < or "
+          ">, the materials within the tolerance go on past the fit's reach). Ridge: the evaluated "
           "materials within the tolerance spread over a factor 4 or more in some parameter.</p>"
         + figure_tag(summary_figure(laws), "recovered flow curves")
         + f"<p>Each material's page (frames side by side, flow curve, camera checks): {', '.join(links)}.</p>")

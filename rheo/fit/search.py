@@ -18,6 +18,7 @@ stored values and goes on from where it stopped.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import json
 import logging
@@ -34,7 +35,7 @@ from scipy.stats import qmc
 
 from rheo.fit.observations import Observations
 from rheo.fit.surface import describe_surface, refine
-from rheo.fit.uncertainty import Evaluate, Interval, Tolerated, tolerated
+from rheo.fit.uncertainty import DETERMINED_SPAN, FLOW_INDEX_SPAN, Evaluate, Interval, Tolerated, tolerated
 from rheo.io import write_atomic
 from rheo.render.silhouette import boundary_distance, distance_to, silhouette
 
@@ -265,7 +266,8 @@ def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: S
     for i in held:
         joint = intervals[names[i]]
         value = float(np.exp(guess[i]))
-        intervals[names[i]] = Interval(value, min(joint.low, value), max(joint.high, value), joint.open)
+        intervals[names[i]] = dataclasses.replace(joint, value=value, low=min(joint.low, value),
+                                                  high=max(joint.high, value))
     intervals.update(free_intervals)
     result.log_values, result.loss, result.intervals = x, loss, intervals
     result.held = [names[i] for i in held]
@@ -391,7 +393,8 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
                        "intervals are lower bounds", ", ".join(
                            f"{n}'s {side}" for n, ends in zip(free_names, open_ends, strict=True)
                            for side, end in zip(("low", "high"), ends, strict=True) if end))
-    intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)), tuple(ends.tolist()))
+    intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)), tuple(ends.tolist()),
+                             FLOW_INDEX_SPAN if n == "n" else DETERMINED_SPAN)
                  for n, v, (lo, hi), ends in zip(free_names, y, extents, open_ends, strict=True)}
     intervals = tolerated(points, losses, tolerance).widen(intervals, free_names, inner)
     evidence = describe_surface(refinement.surface, free_names) | {

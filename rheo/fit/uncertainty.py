@@ -18,6 +18,8 @@ import numpy as np
 Z95 = 1.959964
 # A parameter is determined when its tolerance interval spans less than this factor (low to high) and is closed.
 DETERMINED_SPAN = 4.0
+# ... a flow index, whose real materials' values span far less (0.2 to 1.5), when its interval tells n 0.5 from 1
+FLOW_INDEX_SPAN = 1.5
 
 
 @dataclass
@@ -29,10 +31,11 @@ class Interval:
     low: float
     high: float
     open: tuple[bool, bool] = (False, False)
+    span: float = DETERMINED_SPAN  # the widest (high / low) a determined interval may be
 
     @property
     def determined(self) -> bool:
-        return self.high / self.low < DETERMINED_SPAN and not any(self.open)
+        return self.high / self.low < self.span and not any(self.open)
 
     @property
     def sigma_log(self) -> float:

@@ -173,9 +173,10 @@ def render(name: str, params: dict, sections: list[tuple[str, str]], config: dic
             "the surface fitted to the loss around the estimate, trade-offs between parameters included, each end "
             "then walked out on the loss itself along the surface's valley floor; &lt; or &gt; marks an end where "
             "that region goes on past the evaluations' reach. A parameter whose interval spans more than a factor 4 "
-            "or has an open end is not determined; those whose initial guess lies inside their interval were held "
-            f"at it while the others were fitted again. Convention: {html.escape(params['convention'])}; initial "
-            f"velocity {np.round(params['initial_velocity'], 4).tolist()} m/s.</p>"]
+            "(a flow index 1.5) or has an open end is not determined; those whose initial guess lies inside their "
+            f"interval were held at it while the others were fitted again. Convention: "
+            f"{html.escape(params['convention'])}; initial velocity {np.round(params['initial_velocity'], 4).tolist()} "
+            "m/s.</p>"]
     for heading, content in sections:
         body.append(f"<h2>{html.escape(heading)}</h2>{content}")
     body.append("<h2>Stage runtimes</h2>" + table_tag(["stage", "seconds"],

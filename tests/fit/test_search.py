@@ -336,3 +336,22 @@ def test_an_interval_end_at_the_box_that_the_loss_there_leaves_is_bisected_back_
     c = result.intervals["c"]
     assert -0.5 <= np.log(c.low) - target[2] <= -0.5 + 0.6 / 4  # bisected twice between the estimate and the box
     assert c.open == (False, True)  # the high end goes on past the walk's reach
+
+
+def test_a_flow_index_is_determined_only_within_a_narrower_span_than_a_stress(tmp_path):
+    """tau_y and n with the same curvature get the same interval, a factor of about 3.7 wide: enough to pin a stress,
+    not to tell a thinning flow index from 1."""
+    target = np.log([10.0, 0.8])
+
+    def losses(points):  # within the 10 % tolerance where |d| <= sqrt(0.21 FLOOR^2 / 0.005) = 0.65 log units
+        return [float(np.sqrt(FLOOR**2 + 0.005 * np.sum((x - target) ** 2))) for x in points]
+
+    log = EvaluationLog(tmp_path / "evaluations.json", "key", one_objective=True)
+    box = (target - 3.0, target + 3.0)
+    result = estimate(lambda points, phase: log.evaluate_many(losses, points, phase), [target + 0.2], ["tau_y", "n"],
+                      seen=log.seen, evaluations=60, start_step=0.3, half_width=0.25, rounds=3, tolerance=0.1,
+                      box=box)
+    tau_y, n = result.intervals["tau_y"], result.intervals["n"]
+    assert tau_y.high / tau_y.low == pytest.approx(np.exp(2 * np.sqrt(0.21 * FLOOR**2 / 0.005)), rel=0.05)
+    assert n.high / n.low == pytest.approx(tau_y.high / tau_y.low, rel=1e-3)
+    assert tau_y.determined and not n.determined
