@@ -60,7 +60,8 @@ sections = [("Flow curve", figure_tag(flow, "recovered law, shear stress (Pa) ag
             ("Recovered law", table_tag(["parameter", "value", "tolerance interval", "determined"], law_rows(params))
              + f"<p>Each interval spans the region where a quadratic surface fitted to the losses around the "
              f"estimate stays within the tolerance ({params['tolerance']:.0%}) of its lowest, the parameters' "
-             f"trade-offs included, and the evaluated materials within the tolerance of the best; an end marked "
+             f"trade-offs included, and the evaluated materials within the tolerance of the best (n's also where "
+             f"its profile stays within it, below); an end marked "
              f"&lt; or &gt; is open (the region goes on past the evaluations' reach). {spread_text(params)}.</p>"
              + f"<p>Shear rates reached (5th-95th percentile of the moving particles): {reached}. "
              f"Runtime {params['runtime_s'] / 60:.1f} min.</p>"),
