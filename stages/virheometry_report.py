@@ -76,12 +76,17 @@ if profile and len(profile["n"]) > 1:
     level = (1.0 + params["tolerance"]) * params["loss_px"]
     seen = [f"{n:.2g}" for n, loss in zip(profile["n"], profile["loss_px"], strict=True) if loss <= level]
     figure = flow_index_profile_figure(profile, level, params["n"]["interval"], band, curves)
+    against_rheometer = ""
+    if curves and band is not None:  # how far each of the laws the profile found lies from the rheometer's curves
+        laws = {f"n {n:.2g}": (tau_y, K, n) for tau_y, K, n in zip(profile["tau_y_Pa"], profile["K_Pa_s_n"],
+                                                                   profile["n"], strict=True)}
+        against_rheometer = rheometer_comparison(laws, curves, band)[0]
     sections.insert(2, ("Flow index", figure_tag(figure, "left: the lowest loss found at each searched flow index, "
                                                          "tau_y and K searched at each; right: those laws' flow curves "
                                                          "(dotted: beyond the tolerance)")
                         + f"<p>Within the tolerance of the best: {'n ' + ', '.join(seen) if seen else 'none'} of the "
                         f"{len(profile['n'])} searched. n's interval reaches over where the profile, taken linear in "
-                        f"log n between them, stays within it.</p>"))
+                        f"log n between them, stays within it.</p>" + against_rheometer))
 if smk.input.single:
     header = ["fit", *[f"{label} tolerance interval (width, factor)" for label in KEYS.values()],
               "evaluated materials within the tolerance"]
