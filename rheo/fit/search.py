@@ -35,7 +35,7 @@ from scipy.stats import qmc
 
 from rheo.fit.observations import Observations
 from rheo.fit.surface import describe_surface, refine
-from rheo.fit.uncertainty import DETERMINED_SPAN, FLOW_INDEX_SPAN, Evaluate, Interval, Tolerated, tolerated
+from rheo.fit.uncertainty import Evaluate, Interval, Tolerated, parameter_interval, tolerated
 from rheo.io import write_atomic
 from rheo.render.silhouette import boundary_distance, distance_to, silhouette
 
@@ -393,8 +393,7 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
                        "intervals are lower bounds", ", ".join(
                            f"{n}'s {side}" for n, ends in zip(free_names, open_ends, strict=True)
                            for side, end in zip(("low", "high"), ends, strict=True) if end))
-    intervals = {n: Interval(float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)), tuple(ends.tolist()),
-                             FLOW_INDEX_SPAN if n == "n" else DETERMINED_SPAN)
+    intervals = {n: parameter_interval(n, float(np.exp(v)), float(np.exp(lo)), float(np.exp(hi)), tuple(ends.tolist()))
                  for n, v, (lo, hi), ends in zip(free_names, y, extents, open_ends, strict=True)}
     intervals = tolerated(points, losses, tolerance).widen(intervals, free_names, inner)
     evidence = describe_surface(refinement.surface, free_names) | {

@@ -18,8 +18,8 @@ import numpy as np
 Z95 = 1.959964
 # A parameter is determined when its tolerance interval spans less than this factor (low to high) and is closed.
 DETERMINED_SPAN = 4.0
-# ... a flow index, whose real materials' values span far less (0.2 to 1.5), when its interval tells n 0.5 from 1
-FLOW_INDEX_SPAN = 1.5
+# ... a flow index ("n"), whose real materials' values span far less (0.2 to 1.5), when its interval tells n 0.5 from 1
+SPANS = {"n": 1.5}
 
 
 @dataclass
@@ -41,6 +41,12 @@ class Interval:
     def sigma_log(self) -> float:
         """The standard deviation of the normal log-parameter whose central 95 % is this interval."""
         return float(np.log(self.high / self.low) / (2 * Z95))
+
+
+def parameter_interval(name: str, value: float, low: float, high: float,
+                       open_ends: tuple[bool, bool] = (False, False)) -> Interval:
+    """The interval of the parameter ``name``, judged determined by that parameter's span."""
+    return Interval(value, low, high, open_ends, SPANS.get(name, DETERMINED_SPAN))
 
 
 def grown_to_profile(interval: Interval, values: Sequence[float], losses: Sequence[float],

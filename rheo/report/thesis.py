@@ -85,9 +85,9 @@ def render(tables: list[tuple[str, str, list[dict]]], collapse: list[dict]) -> s
     """``tables``: (thesis table name, title, rows) per recovery table; ``collapse``: the rows of collapse.csv."""
     body = ["<p>Inverse experiments rebuilt from our runs of the thesis' virtual experiments with the thesis' "
             "initial guesses (rows in green: determined by the recording, our error at most the thesis'). Intervals: "
-            "the materials whose loss "
-            "lies within the fit model's tolerance of the best fit's; a parameter the recording does not determine "
-            "is flagged, and held at its initial guess where that lies inside its interval.</p>",
+            "the materials whose loss lies within the fit model's tolerance of the best fit's; a parameter the "
+            "recording does not determine is flagged, and held at its initial guess where that lies inside its "
+            "interval.</p>",
             figure_tag(error_figure([(f"Table {name}: {title}", rows) for name, title, rows in tables]),
                        "percent error of each recovered parameter, thesis and rheo")]
     for name, title, rows in tables:
