@@ -12,6 +12,7 @@ Every simulation is stored with a fingerprint of the engine's source, so a study
 changed engine recomputes.
 
     python -m rheo.fit.convergence --material Lotion --grids 8 12 16 --cfl 0.4 0.8 --out results/bench/Lotion.json
+    python -m rheo.fit.convergence --material Lotion --grids 24 32 48 --device cuda --out results/bench/Lotion_cuda.json
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ from rheo.experiments.virheometry import Setup, read_setup, setup_folders
 from rheo.fit.dam_break import OFFSET_STEP, DamBreakTarget, target
 from rheo.fit.parallel import Evaluator
 from rheo.io import write_json_atomic
+from rheo.physics.simulator import DEVICES, device_name, set_default_device
 
 logger = logging.getLogger(__name__)
 
@@ -324,8 +326,10 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
     parser.add_argument("--config", type=Path, default=ROOT / "config/config.yaml")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--device", choices=DEVICES, default="cpu", help="cuda: one simulation at a time on the GPU")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO)
+    set_default_device(args.device)
     config = settings(args.config)["virheometry"]
     laws = {f"given {i + 1}": given for i, given in enumerate(args.law)}
     if args.material in config["rheometer"]:
@@ -339,7 +343,8 @@ def main(argv: list[str] | None = None) -> None:
     store = EvaluationStore(args.out.with_suffix(".evaluations.json"), engine_fingerprint())
     rows = run(cases, simulation, config["scale"], store, args.workers)
     default_h = default_cells(setups, simulation)
-    write_json_atomic(args.out, {"material": args.material, "laws": laws, "simulation": simulation, "rows": rows,
+    write_json_atomic(args.out, {"material": args.material, "device": device_name(), "laws": laws,
+                                 "simulation": simulation, "rows": rows,
                                  **summarize(rows, default_h)})
 
 
