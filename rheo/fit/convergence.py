@@ -20,11 +20,13 @@ from __future__ import annotations
 import argparse
 import ast
 import hashlib
+import io
 import itertools
 import json
 import logging
 import math
 import time
+import tokenize
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cache, partial
@@ -54,20 +56,33 @@ QUANTITIES = {"loss_px": "loss (px)", "outflow": "share of the material past the
 STUDY_ACROSS = 3  # cells across the channel on the study's grids: the height sets the cell
 
 
+def code_text(source: str) -> str:
+    """Python source less its comments, docstrings, blank lines and trailing spaces: the same text on every Python
+    version (a syntax tree's dump or unparsed form is not)."""
+    lines = source.splitlines()
+    cuts = [(*t.start, *t.end) for t in tokenize.generate_tokens(io.StringIO(source).readline)
+            if t.type == tokenize.COMMENT]
+    for node in ast.walk(ast.parse(source)):
+        body = getattr(node, "body", None)
+        if isinstance(body, list) and body and isinstance(body[0], ast.Expr) \
+                and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str):
+            doc = body[0]  # the syntax tree counts columns in UTF-8 bytes, the tokenizer in characters
+            start = len(lines[doc.lineno - 1].encode()[:doc.col_offset].decode())
+            end = len(lines[doc.end_lineno - 1].encode()[:doc.end_col_offset].decode())
+            cuts.append((doc.lineno, start, doc.end_lineno, end))
+    for first_row, first_col, last_row, last_col in sorted(cuts, reverse=True):
+        lines[first_row - 1:last_row] = [lines[first_row - 1][:first_col] + lines[last_row - 1][last_col:]]
+    return "\n".join(line.rstrip() for line in lines if line.strip())
+
+
 def engine_fingerprint() -> str:
-    """A hash of the engine's code: its source files' syntax trees, less comments and docstrings."""
+    """A hash of the engine's code (``code_text`` of its source files)."""
     hasher = hashlib.sha256()
     for name in ENGINE_SOURCES:
         path = ROOT / name
         for f in sorted(path.rglob("*.py")) if path.is_dir() else [path]:
-            tree = ast.parse(f.read_text())
-            for node in ast.walk(tree):
-                body = getattr(node, "body", None)
-                if isinstance(body, list) and body and isinstance(body[0], ast.Expr) \
-                        and isinstance(body[0].value, ast.Constant) and isinstance(body[0].value.value, str):
-                    node.body = body[1:] or [ast.Pass()]
             hasher.update(f.relative_to(ROOT).as_posix().encode())
-            hasher.update(ast.dump(tree).encode())
+            hasher.update(code_text(f.read_text()).encode())
     return hasher.hexdigest()[:16]
 
 

@@ -12,6 +12,7 @@ from rheo.experiments.virheometry import read_setup
 from rheo.fit import convergence
 from rheo.fit.convergence import (
     EvaluationStore,
+    code_text,
     engine_fingerprint,
     grid,
     law,
@@ -101,6 +102,13 @@ def test_a_study_of_a_real_recording_refines_the_flow_and_resumes_from_its_store
     assert resumed == rows
     with pytest.raises(AssertionError, match="run again"):  # another engine's records are not reused
         run(cases[:1], SIMULATION, 0.5, EvaluationStore(store.path, "another engine"), workers=1)
+
+
+def test_the_engine_text_leaves_out_comments_and_docstrings_only():
+    source = 'def f(x):\n    """Doc, mu <= 1 \u00b5."""\n    y = "# kept"  # dropped \u2264\n\n    return x + y\n'
+    assert code_text(source) == 'def f(x):\n    y = "# kept"\n    return x + y'
+    assert code_text(source.replace("Doc", "A new doc").replace("dropped", "new comment")) == code_text(source)
+    assert code_text(source.replace("x + y", "y + x")) != code_text(source)
 
 
 def test_grids_and_laws_are_parsed_or_refused_with_the_text():
