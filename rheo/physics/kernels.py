@@ -312,12 +312,12 @@ def build(scalar: type) -> SimpleNamespace:
         wp.adjoint[n] += n_bar
 
     @wp.func
-    def yield_factor(structure: wp.array(dtype=scalar), p: int, thixotropy: scalar) -> scalar:
-        """exp(-thixotropy gamma_p): how much of the yield stress a particle's structure keeps after the plastic
-        shear strain gamma_p it has accumulated (1 when the material is not thixotropic)."""
+    def yield_factor(structure: wp.array(dtype=scalar), p: int, thixotropy: scalar, floor: scalar) -> scalar:
+        """floor + (1 - floor) exp(-thixotropy gamma_p): how much of the yield stress a particle's structure keeps
+        after the plastic shear strain gamma_p it has accumulated (1 when the material is not thixotropic)."""
         factor = one
         if thixotropy > zero:
-            factor = wp.exp(-thixotropy * structure[p])
+            factor = floor + (one - floor) * wp.exp(-thixotropy * structure[p])
         return factor
 
     @wp.func
@@ -354,12 +354,13 @@ def build(scalar: type) -> SimpleNamespace:
     @wp.kernel
     def return_mapping(F: wp.array(dtype=mat33), C: wp.array(dtype=mat33), mat: wp.array(dtype=scalar),
                        model: int, dt: scalar, structure: wp.array(dtype=scalar), thixotropy: scalar,
-                       F_out: wp.array(dtype=mat33), tau_out: wp.array(dtype=mat33)):
+                       thixotropy_floor: scalar, F_out: wp.array(dtype=mat33), tau_out: wp.array(dtype=mat33)):
         """The constitutive update alone, for tests and diagnostics."""
         p = wp.tid()
         Ft = (wp.identity(3, dtype=scalar) + dt * C[p]) * F[p]
         Q, l = eigen(Ft * wp.transpose(Ft), wp.identity(3, dtype=scalar))
-        F_new, tau = constitutive(F[p], C[p], mat, model, dt, Q, l, yield_factor(structure, p, thixotropy))
+        F_new, tau = constitutive(F[p], C[p], mat, model, dt, Q, l,
+                                  yield_factor(structure, p, thixotropy, thixotropy_floor))
         F_out[p] = F_new
         tau_out[p] = tau
 
@@ -377,7 +378,8 @@ def build(scalar: type) -> SimpleNamespace:
     @wp.kernel
     def structure_update(F: wp.array(dtype=mat33), C: wp.array(dtype=mat33), eig_l: wp.array(dtype=vec3),
                          mat: wp.array(dtype=scalar), model: int, dt: scalar, thixotropy: scalar,
-                         structure: wp.array(dtype=scalar), structure_out: wp.array(dtype=scalar)):
+                         thixotropy_floor: scalar, structure: wp.array(dtype=scalar),
+                         structure_out: wp.array(dtype=scalar)):
         """A thixotropic particle's accumulated plastic shear strain: the step's return mapping takes the trial
         deviatoric Hencky strain e to alpha e, a plastic shear strain sqrt(2) (1 - alpha) |e| (gamma in simple
         shear)."""
@@ -385,8 +387,8 @@ def build(scalar: type) -> SimpleNamespace:
         l = eig_l[p]
         eps = half * vec3(wp.log(l[0]), wp.log(l[1]), wp.log(l[2]))
         e = eps - vec3(third * (eps[0] + eps[1] + eps[2]))
-        alpha = yield_scale(e, mat[P_MU], mat[P_TAU_Y] * yield_factor(structure, p, thixotropy), mat[P_K],
-                            mat[P_N], dt, model)
+        tau_y = mat[P_TAU_Y] * yield_factor(structure, p, thixotropy, thixotropy_floor)
+        alpha = yield_scale(e, mat[P_MU], tau_y, mat[P_K], mat[P_N], dt, model)
         structure_out[p] = structure[p] + sqrt2 * (one - alpha) * wp.sqrt(wp.dot(e, e))
 
     @wp.kernel
@@ -419,13 +421,14 @@ def build(scalar: type) -> SimpleNamespace:
     def p2g(x: wp.array(dtype=vec3), v: wp.array(dtype=vec3), C: wp.array(dtype=mat33),
             F: wp.array(dtype=mat33), mat: wp.array(dtype=scalar), model: int, p_vol: scalar, dt: scalar,
             inv_dx: scalar, eig_q: wp.array(dtype=mat33), eig_l: wp.array(dtype=vec3),
-            structure: wp.array(dtype=scalar), thixotropy: scalar, transfer: int, F_out: wp.array(dtype=mat33),
-            grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3)):
+            structure: wp.array(dtype=scalar), thixotropy: scalar, thixotropy_floor: scalar, transfer: int,
+            F_out: wp.array(dtype=mat33), grid_m: wp.array3d(dtype=scalar), grid_mv: wp.array3d(dtype=vec3)):
         """The constitutive update and the stress' impulse on the grid, and with ``transfer`` the particles' mass and
         momentum too (else ``C`` is the grid's velocity gradient at particles held in place, ``v`` unread)."""
         p = wp.tid()
         Cp = C[p]
-        F_new, tau = constitutive(F[p], Cp, mat, model, dt, eig_q[p], eig_l[p], yield_factor(structure, p, thixotropy))
+        F_new, tau = constitutive(F[p], Cp, mat, model, dt, eig_q[p], eig_l[p],
+                                  yield_factor(structure, p, thixotropy, thixotropy_floor))
         F_out[p] = F_new
         p_mass = mat[P_RHO] * p_vol
         affine = (-dt * p_vol * scalar(4.0) * inv_dx * inv_dx) * tau

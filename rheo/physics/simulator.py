@@ -459,14 +459,16 @@ class _Run:
             if physics.thixotropy > 0.0:
                 self._launch(f"structure_update {phase == 0}", i, lambda: (
                     k.structure_update, len(x), [F, rate, eig_l, self.mat, self.material.model, s(self.dt),
-                                                 s(physics.thixotropy), structure], [structure_next]))
+                                                 s(physics.thixotropy), s(physics.thixotropy_floor), structure],
+                    [structure_next]))
         # only the nodes the particles reach hold mass and are read back (the grid is mostly empty)
         box = tuple(int(h - lo + 1) for lo, h in zip(low, high, strict=True))
         now, corner = s(step * self.dt), wp.vec3i(*low)
         with tape if tape is not None else contextlib.nullcontext():
             self._launch(f"p2g {phase == 0}", i, lambda: (
                 k.p2g, len(x), [x, v, rate, F, self.mat, self.material.model, s(self.particle_volume), s(self.dt),
-                                s(inv_dx), eig_q, eig_l, structure, s(physics.thixotropy), int(phase == 0)],
+                                s(inv_dx), eig_q, eig_l, structure, s(physics.thixotropy),
+                                s(physics.thixotropy_floor), int(phase == 0)],
                 [F1, m, mv]))
             if sim.symmetry_node is not None:
                 self._launch(f"mirror_fold {phase == 0}", i, lambda: (
