@@ -378,18 +378,22 @@ def build(scalar: type) -> SimpleNamespace:
     @wp.kernel
     def structure_update(F: wp.array(dtype=mat33), C: wp.array(dtype=mat33), eig_l: wp.array(dtype=vec3),
                          mat: wp.array(dtype=scalar), model: int, dt: scalar, thixotropy: scalar,
-                         thixotropy_floor: scalar, structure: wp.array(dtype=scalar),
+                         thixotropy_floor: scalar, thixotropy_exponent: scalar, structure: wp.array(dtype=scalar),
                          structure_out: wp.array(dtype=scalar)):
-        """A thixotropic particle's accumulated plastic shear strain: the step's return mapping takes the trial
-        deviatoric Hencky strain e to alpha e, a plastic shear strain sqrt(2) (1 - alpha) |e| (gamma in simple
-        shear)."""
+        """A thixotropic particle's structure measure, the integral of its plastic shear rate to the power
+        ``thixotropy_exponent`` over time: with 1 the plastic shear strain (the step's return mapping takes the
+        trial deviatoric Hencky strain e to alpha e, a plastic shear strain sqrt(2) (1 - alpha) |e|, gamma in
+        simple shear), with 0 the time it has spent yielding."""
         p = wp.tid()
         l = eig_l[p]
         eps = half * vec3(wp.log(l[0]), wp.log(l[1]), wp.log(l[2]))
         e = eps - vec3(third * (eps[0] + eps[1] + eps[2]))
         tau_y = mat[P_TAU_Y] * yield_factor(structure, p, thixotropy, thixotropy_floor)
         alpha = yield_scale(e, mat[P_MU], tau_y, mat[P_K], mat[P_N], dt, model)
-        structure_out[p] = structure[p] + sqrt2 * (one - alpha) * wp.sqrt(wp.dot(e, e))
+        plastic = sqrt2 * (one - alpha) * wp.sqrt(wp.dot(e, e))
+        if thixotropy_exponent != one and plastic > zero:
+            plastic = dt * wp.pow(plastic / dt, thixotropy_exponent)
+        structure_out[p] = structure[p] + plastic
 
     @wp.kernel
     def hb_excess_kernel(trial: wp.array(dtype=scalar), relax: scalar, K: scalar, n: scalar,

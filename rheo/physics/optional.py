@@ -16,9 +16,11 @@ from dataclasses import dataclass, fields
 class OptionalPhysics:
     """``air_drag`` (1/m): quadratic drag, an acceleration -air_drag |v| v on the material (a body of size L and
     density rho in air of density rho_air: about rho_air C_d / (2 rho L), 1e-2 1/m for a few cm of sauce).
-    ``thixotropy``: the yield stress falls to tau_y (floor + (1 - floor) exp(-thixotropy gamma_p)) as the material
-    accumulates plastic shear strain gamma_p (its structure breaks down; no rebuilding over the seconds simulated),
-    ``thixotropy_floor`` (in [0, 1)) the share of it a fully broken-down structure keeps.
+    ``thixotropy``: the yield stress falls to tau_y (floor + (1 - floor) exp(-thixotropy xi)) as the material
+    accumulates xi, the integral over time of its plastic shear rate to the power ``thixotropy_exponent`` (1: the
+    plastic shear strain; 0: the time spent yielding, thixotropy then in 1/s); its structure breaks down, with no
+    rebuilding over the seconds simulated. ``thixotropy_floor`` (in [0, 1)): the share a broken-down structure
+    keeps.
     ``wall_adhesion`` (Pa): a traction with which every non-sticky collider holds the material touching it, against
     sliding and separating alike and whatever the pressure (unlike Coulomb friction).
     ``surface_tension`` (N/m): the free surface's tension, as the continuum surface stress of the material's volume
@@ -27,6 +29,7 @@ class OptionalPhysics:
     air_drag: float = 0.0
     thixotropy: float = 0.0
     thixotropy_floor: float = 0.0
+    thixotropy_exponent: float = 1.0
     wall_adhesion: float = 0.0
     surface_tension: float = 0.0
 
@@ -34,6 +37,6 @@ class OptionalPhysics:
         for f in fields(self):
             value = getattr(self, f.name)
             if not (math.isfinite(value) and value >= 0.0):
-                raise ValueError(f"optional physics {f.name} = {value!r} must be finite and >= 0 (0 switches it off)")
+                raise ValueError(f"optional physics {f.name} = {value!r} must be finite and >= 0")
         if self.thixotropy_floor >= 1.0:
             raise ValueError(f"optional physics thixotropy_floor = {self.thixotropy_floor!r} must be below 1")

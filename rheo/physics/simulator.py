@@ -459,7 +459,8 @@ class _Run:
             if physics.thixotropy > 0.0:
                 self._launch(f"structure_update {phase == 0}", i, lambda: (
                     k.structure_update, len(x), [F, rate, eig_l, self.mat, self.material.model, s(self.dt),
-                                                 s(physics.thixotropy), s(physics.thixotropy_floor), structure],
+                                                 s(physics.thixotropy), s(physics.thixotropy_floor),
+                                                 s(physics.thixotropy_exponent), structure],
                     [structure_next]))
         # only the nodes the particles reach hold mass and are read back (the grid is mostly empty)
         box = tuple(int(h - lo + 1) for lo, h in zip(low, high, strict=True))

@@ -20,7 +20,7 @@ def _return_mapping(material, F, C, dt):
     mat = wp.array(material.kernel_vector(material.parameters()).numpy(), dtype=wp.float64)
     wp.launch(k.return_mapping, n, inputs=[wp.array(F, dtype=k.mat33), wp.array(C, dtype=k.mat33), mat,
                                           material.model, wp.float64(dt), wp.zeros(n, dtype=wp.float64),
-                                          wp.float64(0.0), F_out, tau_out])
+                                          wp.float64(0.0), wp.float64(0.0), F_out, tau_out])
     return F_out.numpy(), tau_out.numpy()
 
 

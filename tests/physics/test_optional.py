@@ -56,7 +56,8 @@ def test_wall_adhesion_holds_a_block_under_a_ceiling_above_its_weight_per_area()
     assert _hanging_drop(weight / 2, contact="sticky") == _hanging_drop(0.0, contact="sticky")
 
 
-def _simple_shear(thixotropy: float, floor: float = 0.0, rate: float = 2.0, dt: float = 1e-3, steps: int = 2000):
+def _simple_shear(thixotropy: float, floor: float = 0.0, exponent: float = 1.0, rate: float = 2.0, dt: float = 1e-3,
+                  steps: int = 2000):
     """A material point sheared at a constant rate, stepped through the kernels' return mapping and structure
     update: the accumulated plastic shear strain and the equivalent shear stress |s| / sqrt(2) at every step."""
     k = kn.build(wp.float64)
@@ -71,7 +72,8 @@ def _simple_shear(thixotropy: float, floor: float = 0.0, rate: float = 2.0, dt: 
         F_out, tau_out, next_structure = wp.zeros_like(F), wp.zeros_like(F), wp.zeros_like(structure)
         wp.launch(k.eigen, 1, inputs=[F, C, wp.float64(dt), q], outputs=[q, lam_b])
         wp.launch(k.structure_update, 1, inputs=[F, C, lam_b, mat, material.model, wp.float64(dt),
-                                                 wp.float64(thixotropy), wp.float64(floor), structure],
+                                                 wp.float64(thixotropy), wp.float64(floor), wp.float64(exponent),
+                                                 structure],
                   outputs=[next_structure])
         wp.launch(k.return_mapping, 1, inputs=[F, C, mat, material.model, wp.float64(dt), structure,
                                                wp.float64(thixotropy), wp.float64(floor)], outputs=[F_out, tau_out])
@@ -83,14 +85,16 @@ def _simple_shear(thixotropy: float, floor: float = 0.0, rate: float = 2.0, dt: 
     return np.array(strain), np.array(stress), material
 
 
-@pytest.mark.parametrize("thixotropy, floor", [(0.0, 0.0), (0.5, 0.0), (1.5, 0.3)])
-def test_thixotropic_yield_stress_decays_with_the_plastic_strain(thixotropy, floor):
-    """In steady simple shear the plastic strain grows at the imposed rate, and the stress follows the law with the
-    broken-down yield stress: tau_y (floor + (1 - floor) exp(-thixotropy gamma_p)) + K gamma_dot^n."""
+@pytest.mark.parametrize("thixotropy, floor, exponent", [(0.0, 0.0, 1.0), (0.5, 0.0, 1.0), (1.5, 0.3, 1.0),
+                                                          (3.0, 0.3, 0.0), (1.0, 0.0, 0.5)])
+def test_thixotropic_yield_stress_decays_with_the_plastic_strain(thixotropy, floor, exponent):
+    """In steady simple shear the structure measure xi grows at the imposed rate to the power ``exponent`` (the
+    plastic strain with 1, the time yielding with 0), and the stress follows the law with the broken-down yield
+    stress: tau_y (floor + (1 - floor) exp(-thixotropy xi)) + K gamma_dot^n."""
     rate, dt = 2.0, 1e-3
-    strain, stress, m = _simple_shear(thixotropy, floor, rate, dt)
+    strain, stress, m = _simple_shear(thixotropy, floor, exponent, rate, dt)
     late = slice(1000, None)
-    assert np.allclose(np.diff(strain[late]) / dt, rate, rtol=0.01)
+    assert np.allclose(np.diff(strain[late]) / dt, rate**exponent, rtol=0.01)
     expected = m.tau_y * (floor + (1 - floor) * np.exp(-thixotropy * strain[late])) + m.K * rate**m.n
     assert np.allclose(stress[late], expected, rtol=0.02)
     if floor:  # broken down, the structure keeps its floor: the stress levels off there, not at the bare K rate^n
