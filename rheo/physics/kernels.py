@@ -313,8 +313,8 @@ def build(scalar: type) -> SimpleNamespace:
 
     @wp.func
     def yield_factor(structure: wp.array(dtype=scalar), p: int, thixotropy: scalar, floor: scalar) -> scalar:
-        """floor + (1 - floor) exp(-thixotropy gamma_p): how much of the yield stress a particle's structure keeps
-        after the plastic shear strain gamma_p it has accumulated (1 when the material is not thixotropic)."""
+        """floor + (1 - floor) exp(-thixotropy xi): how much of the yield stress a particle's structure keeps after
+        accumulating the structure measure xi (``structure_update``; 1 when the material is not thixotropic)."""
         factor = one
         if thixotropy > zero:
             factor = floor + (one - floor) * wp.exp(-thixotropy * structure[p])
