@@ -30,7 +30,7 @@ from rheo.fit.dam_break import (
 )
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, estimate, start_step, survey_points
-from rheo.fit.uncertainty import grown_to_profile
+from rheo.fit.uncertainty import grown_to_profile, tolerance_level
 from rheo.io import json_number, write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import frames_figure
@@ -113,7 +113,7 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
         profile_record = {key: [float(np.exp(law_x[i])) for law_x, _ in by_index]
                           for i, key in enumerate(RESULT_KEYS.values())} | {"loss_px": [v for _, v in by_index]}
         intervals["n"] = grown_to_profile(intervals["n"], profile_record["n"], profile_record["loss_px"],
-                                          (1.0 + settings["tolerance"]) * loss)
+                                          tolerance_level(loss, settings["tolerance"]))
     log.info("estimate: loss %.5g px, %s", loss, describe(x))
     details = simulated.get(tuple(x)) or simulate(x)
 bar.close()

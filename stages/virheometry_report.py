@@ -8,7 +8,7 @@ import numpy as np
 
 from rheo.experiments.rheometer import read_flow_curve
 from rheo.fit.dam_break import RESULT_KEYS
-from rheo.fit.uncertainty import Interval, log_draws
+from rheo.fit.uncertainty import Interval, log_draws, tolerance_level
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import headline, interval_text
 from rheo.report.html import figure_tag, image_tag, page, table_tag
@@ -73,7 +73,7 @@ sections = [("Flow curve", figure_tag(flow, "recovered law, shear stress (Pa) ag
              + image_tag(Path(smk.input.frames).read_bytes(), "png", "recorded and simulated silhouettes"))]
 profile = params.get("flow_index_profile")
 if profile and len(profile["n"]) > 1:
-    level = (1.0 + params["tolerance"]) * params["loss_px"]
+    level = tolerance_level(params["loss_px"], params["tolerance"])
     seen = [f"{n:.2g}" for n, loss in zip(profile["n"], profile["loss_px"], strict=True) if loss <= level]
     figure = flow_index_profile_figure(profile, level, params["n"]["interval"], band, curves)
     against_rheometer = ""

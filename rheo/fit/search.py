@@ -35,7 +35,7 @@ from scipy.stats import qmc
 
 from rheo.fit.observations import Observations
 from rheo.fit.surface import describe_surface, refine
-from rheo.fit.uncertainty import Evaluate, Interval, Tolerated, parameter_interval, tolerated
+from rheo.fit.uncertainty import Evaluate, Interval, Tolerated, parameter_interval, tolerance_level, tolerated
 from rheo.io import write_atomic
 from rheo.render.silhouette import boundary_distance, distance_to, silhouette
 
@@ -258,7 +258,7 @@ def estimate(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], names: S
                                                               rounds, tolerance, box, evaluate_estimate,
                                                               "surface, held")
     result.evidence["held_at_guess"] = evidence
-    if held_loss > (1.0 + tolerance) * loss:
+    if held_loss > tolerance_level(loss, tolerance):
         logger.warning("with %s at the initial guess the loss is %.5g, more than the tolerance above %.5g: nothing "
                        "is held", ", ".join(names[i] for i in held), held_loss, loss)
         return result
@@ -382,7 +382,7 @@ def surface_estimate(evaluate_many: EvaluateMany, centre: np.ndarray, free: Sequ
     extents, open_ends = refinement.surface.extents(tolerance, refinement.reach, y)
     extents = np.column_stack([np.clip(extents[:, 0], inner[0], y), np.clip(extents[:, 1], y, inner[1])])
     extents, open_ends = walk_ends(lambda ys: evaluate_many([embed(v) for v in ys], phase), y, extents, open_ends,
-                                   inner, refinement.half_width, (1.0 + tolerance) * loss,
+                                   inner, refinement.half_width, tolerance_level(loss, tolerance),
                                    refinement.surface.valley_floor())
     # the walk may go on down the valley
     y, loss = lowest(y, loss, "walking the interval ends")

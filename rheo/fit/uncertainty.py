@@ -137,8 +137,13 @@ class Tolerated:
         return widened
 
 
+def tolerance_level(loss: float, tolerance: float) -> float:
+    """The highest loss within ``tolerance`` (relative) of ``loss``."""
+    return (1.0 + tolerance) * loss
+
+
 def tolerated(points: np.ndarray, losses: np.ndarray, tolerance: float) -> Tolerated:
     """The evaluated ``points`` (log-parameters) whose ``losses`` lie within ``tolerance`` (relative) of the lowest,
     each once (a point evaluated in two phases is one material)."""
     points, losses = np.asarray(points, dtype=float), np.asarray(losses, dtype=float)
-    return Tolerated(np.unique(points[losses <= (1.0 + tolerance) * losses.min()], axis=0))
+    return Tolerated(np.unique(points[losses <= tolerance_level(losses.min(), tolerance)], axis=0))
