@@ -147,18 +147,26 @@ def matched_law(law: np.ndarray, n: float, next_n: float, band: tuple[float, flo
     return np.log([max(new_tau_y, 1e-3 * tau_y), max(new_K, 1e-3 * K)])
 
 
+# The open candidate: a generic discrepancy fitted where no named effect explains the mismatch, the four rates (1/s)
+# of Effects.open_drag, searched as they are within a box (negative: the flow driven rather than held back)
+OPEN_DRAG = ("drag_floor_early", "drag_floor_late", "drag_bulk_early", "drag_bulk_late")
+OPEN_BOX = (-5.0, 20.0)
+OPEN_STEP = 1.0  # initial simplex step of each rate, 1/s
+
+
 @dataclass(frozen=True)
 class Law:
     """How a search vector maps to a material and effects: log tau_y, log K, then log n unless the flow index is
-    fixed at ``n``, then the ``candidate`` effect's coordinate, if any."""
+    fixed at ``n``, then the ``candidate`` effect's coordinate, if any, or the open drag's four rates (``open``)."""
 
     n: float | None = None
     candidate: Candidate | None = None
+    open: bool = False
 
     @property
     def names(self) -> tuple[str, ...]:
         law = ("tau_y", "K") if self.n is not None else ("tau_y", "K", "n")
-        return law + ((self.candidate.name,) if self.candidate else ())
+        return law + ((self.candidate.name,) if self.candidate else ()) + (OPEN_DRAG if self.open else ())
 
     def unpack(self, x, effects: Effects | None = None) -> tuple[dict[str, float], Effects]:
         """The law and the effects (``effects``, none by default, with the candidate's added) of a search vector."""
@@ -167,4 +175,6 @@ class Law:
         effects = effects or Effects()
         if self.candidate is not None:
             law, effects = self.candidate.apply(self.candidate.value(float(x[-1])), law, effects)
+        if self.open:
+            effects = dataclasses.replace(effects, open_drag=tuple(float(r) for r in x[-len(OPEN_DRAG):]))
         return law, effects

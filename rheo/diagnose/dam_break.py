@@ -17,7 +17,7 @@ from functools import partial
 
 import numpy as np
 
-from rheo.diagnose.candidates import CANDIDATES, Candidate, Law
+from rheo.diagnose.candidates import CANDIDATES, OPEN_BOX, OPEN_DRAG, OPEN_STEP, Candidate, Law
 from rheo.diagnose.residuals import Location, locate
 from rheo.diagnose.selection import Refit, choose, finalists_refitted, profile_refit, refits
 from rheo.experiments.virheometry import Setup
@@ -25,6 +25,7 @@ from rheo.fit.dam_break import Comparison, compare_law, shear_rate_band, targets
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, simplex_search
 from rheo.io import json_number
+from rheo.physics.optional import OPEN_DRAG_TERMS
 
 logger = logging.getLogger(__name__)
 MIN_LAW_STEP = 0.05  # log units: the smallest initial simplex of a refit's law
@@ -60,10 +61,24 @@ def summary(results: list[Comparison]) -> dict:
             "distances": [float(d) for r in results for d in r.fitted_distances]}
 
 
+def open_drag_words(rates: np.ndarray) -> str:
+    """Where and when the open drag acts, in words: its terms of at least half the largest rate (1/s)."""
+    largest = float(np.max(np.abs(rates)))
+    parts = []
+    for term, rate in zip(OPEN_DRAG_TERMS, rates, strict=True):
+        if largest > 0 and abs(rate) >= 0.5 * largest:
+            place, when = term.split()
+            action = "holds the material back" if rate > 0 else "drives the flow"
+            where = "near the floor" if place == "floor" else "above the floor"
+            parts.append(f"{action} {where}, {when} in the recording ({rate:+.2g} 1/s)")
+    return "; ".join(parts) or "nowhere"
+
+
 @dataclass
 class Diagnosis:
     """The base fit, every candidate's short refit, the chosen effect's longer refit (None: no candidate explains the
-    mismatch), the comparisons before and after by setup, and where the base fit's mismatch lies."""
+    mismatch), the comparisons before and after by setup, where the base fit's mismatch lies, and the open drag's
+    refit where no candidate is chosen (None if not fitted)."""
 
     law: Law
     base: Refit
@@ -73,21 +88,33 @@ class Diagnosis:
     after: dict[str, Comparison]
     location: dict[str, Location]
     evidence: float
+    open: Refit | None = None
 
     def values(self, refit: Refit) -> dict[str, float]:
-        """The law and the effect of a refit, in their units."""
+        """The law and the effect of a refit (a candidate's or the open drag's), in their units."""
         candidate = CANDIDATES.get(refit.name)
         law, _ = Law(self.law.n, candidate).unpack(refit.x)
         out = {"tau_y_Pa": law["tau_y"], "K_Pa_s_n": law["K"], "n": law["n"]}
         if candidate is not None:
             out[candidate.name] = candidate.value(float(refit.x[-1]))
+        if refit.name == "open":
+            out |= {name: float(rate) for name, rate in zip(OPEN_DRAG, refit.x[-len(OPEN_DRAG):], strict=True)}
         return out
+
+    @property
+    def open_explains(self) -> bool:
+        """Whether the open drag lowers the criterion below the base model's by the evidence asked of an effect."""
+        return self.open is not None and self.open.criterion < self.base.criterion - self.evidence
 
     def unexplained(self) -> str:
         """The verdict where no candidate is named: the mismatch that remains, where and when, in the setup that
-        shows the most of it."""
+        shows the most of it, and what the open drag says of it where it explains it."""
         worst = max(self.location, key=lambda name: self.location[name].total.sum())
-        return f"no candidate explains the mismatch that remains ({worst}: {self.location[worst].words()})"
+        verdict = f"no candidate explains the mismatch that remains ({worst}: {self.location[worst].words()})"
+        if self.open_explains:
+            verdict += (f"; an open drag explains part of it ({self.base.loss:.3g} to {self.open.loss:.3g} px): it "
+                        f"{open_drag_words(self.open.x[-len(OPEN_DRAG):])}")
+        return verdict
 
     def record(self) -> dict:
         """diagnosis.json's content."""
@@ -115,6 +142,9 @@ class Diagnosis:
             "verdict": CANDIDATES[chosen.name].title if chosen is not None else self.unexplained(),
             "magnitude": None if chosen is None else self.values(chosen)[chosen.name],
             "refit": None if chosen is None else fit(chosen),
+            "open": None if self.open is None else {
+                **fit(self.open), "delta_criterion": self.open.criterion - self.base.criterion,
+                "explains": self.open_explains, "words": open_drag_words(self.open.x[-len(OPEN_DRAG):])},
             "loss_before_after_px": {"fitted": [self.base.loss, after.loss],
                                      "held_out": [self.base.held_out_loss, after.held_out_loss],
                                      "forecast": [json_number(self.base.forecast_loss),
@@ -139,7 +169,8 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
     ``stress_step`` and ``share_step`` (its initial simplex in the law's stress and the yield stress' share of it,
     log units), ``finalists`` (the candidates of lowest criterion refitted with every parameter free before the
     choice), ``refit_evaluations`` (each such refit), ``law_step`` (largest initial simplex of the law in those refits,
-    log units; ``law_steps``), ``evidence`` (least drop of the criterion)."""
+    log units; ``law_steps``), ``evidence`` (least drop of the criterion), ``open_evaluations`` (the open drag's
+    refit where no candidate is chosen; 0: none)."""
     records = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:
@@ -153,7 +184,7 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
     skipped = sorted(set(settings["candidates"]) - {c.name for c in candidates})
     if skipped:
         logger.info("not applicable here: %s", ", ".join(skipped))
-    laws = {"base": law, **{c.name: Law(law.n, c) for c in candidates}}
+    laws = {"base": law, "open": Law(law.n, open=True), **{c.name: Law(law.n, c) for c in candidates}}
     with Evaluator(partial(objectives, setups, simulation, laws), workers) as evaluator:
 
         def evaluate(law_name: str) -> Callable[[np.ndarray, str], float]:
@@ -196,9 +227,20 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
         chosen = choose(base, found, settings["evidence"])
         after = before if chosen is None else dict(zip(setups, evaluator.map(
             [(f"{chosen.name}|{s}", chosen.x) for s in setups]), strict=True))
+        opened = None
+        if chosen is None and settings.get("open_evaluations", 0) > 0:
+            # what kind of physics is missing: a drag field free where and when it acts
+            rates = len(OPEN_DRAG)
+            box = (np.r_[law_box[0], np.full(rates, OPEN_BOX[0])], np.r_[law_box[1], np.full(rates, OPEN_BOX[1])])
+            step = np.r_[0.5 * steps, np.full(rates, OPEN_STEP)]
+            simplex_search(evaluate("open"), np.r_[x_base, np.zeros(rates)], step, settings["open_evaluations"],
+                           "open", box=box)
+            opened = Refit.of("open", log.best("open"))
+            logger.info("open drag: loss %.4g px (base %.4g), criterion %+.2f", opened.loss, base.loss,
+                        opened.criterion - base.criterion)
     location = {}
     for name, comparison in before.items():
         setup = records[name]
         labels = [str(k + 1) for k in range(len(setup.masks))]
         location[name] = locate(setup, list(comparison.silhouettes), setup.masks, labels)
-    return Diagnosis(law, base, found, chosen, before, after, location, settings["evidence"])
+    return Diagnosis(law, base, found, chosen, before, after, location, settings["evidence"], opened)

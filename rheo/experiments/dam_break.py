@@ -27,6 +27,7 @@ WALL_CELLS = 2  # the least thickness of a wall, in grid cells
 GRAVITY = 9.81  # m/s^2, as in the recordings' setup (981 cm/s^2)
 # walls grown by this fraction of a cell: a node on a wall's face belongs to the wall, not to a rounding error
 FACE_MARGIN = 1e-3
+OPEN_LAYER = 0.25  # the open drag's floor layer, a share of the material's height
 
 
 class DamBreakError(ValueError):
@@ -43,7 +44,10 @@ class Effects:
     the floor). ``gate_lift_time`` (s): a gate at the cuboid's front slides up at a constant speed and clears the
     material's height after this time (0: released at once). ``gravity_tilt`` (rad): gravity leans towards +x,
     down the channel (a table or camera not level). ``density_factor``: the material's density times this (a wrong
-    density). ``physics``: the engine's optional physics (air drag, thixotropy, wall adhesion, surface tension)."""
+    density). ``physics``: the engine's optional physics (air drag, thixotropy, wall adhesion, surface tension).
+    ``open_drag`` (1/s, signed): a generic discrepancy, ``OptionalPhysics.open_drag``'s four rates (floor early,
+    floor late, bulk early, bulk late) with the floor's layer a quarter of the material's height and the span from
+    the release to the last frame simulated."""
 
     floor_friction: float | None = None
     wall_slip: float | None = None
@@ -51,6 +55,7 @@ class Effects:
     gravity_tilt: float = 0.0
     density_factor: float = 1.0
     physics: OptionalPhysics = field(default_factory=OptionalPhysics)
+    open_drag: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         if self.floor_friction is not None and not (math.isfinite(self.floor_friction) and self.floor_friction >= 0):
@@ -153,8 +158,15 @@ class DamBreakScene:
         low, high = self.setup.cuboid
         return low, high if self.mid_plane is None else np.array([high[0], high[1], self.mid_plane])
 
-    def simulator(self, material: HerschelBulkley, effects: Effects | None = None) -> Simulator:
+    def simulator(self, material: HerschelBulkley, effects: Effects | None = None,
+                  duration: float = 1.0) -> Simulator:
+        """The scene's simulator of ``material`` with ``effects``, for a rollout of ``duration`` s (the open drag's
+        span)."""
         effects = effects or Effects()
+        physics = effects.physics
+        if any(effects.open_drag):
+            physics = dataclasses.replace(physics, open_drag=effects.open_drag,
+                                          open_layer=OPEN_LAYER * self.setup.height, open_span=duration)
         tilt = effects.gravity_tilt
         gravity = (0.0, -GRAVITY, 0.0) if tilt == 0 else (GRAVITY * math.sin(tilt), -GRAVITY * math.cos(tilt), 0.0)
         if effects.density_factor != 1:
@@ -162,7 +174,7 @@ class DamBreakScene:
         transfer_dt = None if self.transfer_cfl is None else self.transfer_cfl * self.dx / self.flow_speed
         return Simulator(material, resolution=self.resolution, domain_size=self.domain_size,
                          domain_origin=self.domain_origin, colliders=self.colliders(effects), gravity=gravity,
-                         symmetry_z=self.mid_plane, physics=effects.physics, cfl=self.cfl, transfer_dt=transfer_dt)
+                         symmetry_z=self.mid_plane, physics=physics, cfl=self.cfl, transfer_dt=transfer_dt)
 
     @cached_property
     def initial_positions(self) -> np.ndarray:
@@ -183,7 +195,7 @@ class DamBreakScene:
         mid-plane where the scene has one (``positions`` gives the whole material's)."""
         effects = effects or Effects()
         frames = int(np.ceil(duration / sample_dt - 1e-9))
-        simulator = self.simulator(material, effects)
+        simulator = self.simulator(material, effects, frames * sample_dt)
         # the flow speed, not the simulator's own bound (a fall from the domain's height), sets the step (an unstable
         # step is retried at half); a gate, a slip plate sliding along its own face, pushes nothing
         dt, _ = simulator.time_step(sample_dt, self.flow_speed)

@@ -8,7 +8,7 @@ images' share to the grid after ``p2g``. Between transfers a few steps apart, a 
 and advances the grid's momentum alone: ``grid_gradient`` (the velocity gradient at the particles), ``eigen``,
 ``p2g`` without the transfer (the stress' impulse alone), ``add_momentum``, ``grid_update``. A thixotropic material's
 ``structure_update`` accumulates each particle's plastic shear strain (``OptionalPhysics``: it lowers the yield
-stress in ``p2g``; air drag and wall adhesion act in ``grid_update``; surface tension is the impulse that
+stress in ``p2g``; air drag, wall adhesion and the open drag act in ``grid_update``; surface tension is the impulse that
 ``capillary_force`` adds to the grid's momentum from the cells' ``capillary_stress``, before ``grid_update``).
 Every input a loss may depend on (particle state, material parameters, boundary parameters) is a Warp array, so
 Warp's generated adjoints give the gradients.
@@ -67,6 +67,7 @@ _SERIES_GAP = 1e-2
 def build(scalar: type) -> SimpleNamespace:
     """Compile-ready kernels for one scalar type (``wp.float32`` or ``wp.float64``)."""
     vec3 = wp.types.vector(3, scalar)
+    vec4 = wp.types.vector(4, scalar)
     mat33 = wp.types.matrix((3, 3), scalar)
     mat63 = wp.types.matrix((6, 3), scalar)
     zero = scalar(0.0)
@@ -591,7 +592,8 @@ def build(scalar: type) -> SimpleNamespace:
                     time: scalar, dx: scalar, gravity: vec3, shapes: wp.array(dtype=int),
                     laws: wp.array(dtype=int), geom: wp.array2d(dtype=scalar), timing: wp.array2d(dtype=scalar),
                     bparams: wp.array2d(dtype=scalar), min_mass: scalar, offset: wp.vec3i, adhesion_cut: scalar,
-                    air_drag: scalar, face_mass: scalar, grid_v: wp.array3d(dtype=vec3)):
+                    air_drag: scalar, face_mass: scalar, open_drag: vec4, open_floor: scalar, open_layer: scalar,
+                    open_span: scalar, grid_v: wp.array3d(dtype=vec3)):
         # launched over the box of nodes the particles reach, from node ``offset``
         i, j, k = wp.tid()
         i += offset[0]
@@ -605,6 +607,12 @@ def build(scalar: type) -> SimpleNamespace:
         if air_drag > zero:  # quadratic drag, implicit: stable at any step
             v = v / (one + dt * air_drag * wp.length(v))
         node = vec3(scalar(i), scalar(j), scalar(k)) * dx
+        if wp.length(open_drag) > zero:  # the generic discrepancy's linear drag, implicit
+            late = wp.min(time / open_span, one)
+            floor = wp.exp(-wp.max(node[1] - open_floor, zero) / open_layer)
+            rate = floor * ((one - late) * open_drag[0] + late * open_drag[1]) \
+                + (one - floor) * ((one - late) * open_drag[2] + late * open_drag[3])
+            v = v / (one + dt * wp.max(rate, -half / dt))  # a driving rate at most doubles v per step
         count = shapes.shape[0]
         for c in range(MAX_COLLIDERS):  # unrolled: Warp differentiates static loops only
             if c < count:
@@ -717,9 +725,9 @@ def build(scalar: type) -> SimpleNamespace:
         C_out[p] = new_C
         x_out[p] = x[p] + dt * new_v
 
-    return SimpleNamespace(vec3=vec3, mat33=mat33, eigen=eigen_kernel, structure_update=structure_update, p2g=p2g,
-                           reached_nodes=reached_nodes, mirror_fold=mirror_fold, grid_update=grid_update, g2p=g2p,
-                           grid_gradient=grid_gradient, add_momentum=add_momentum,
+    return SimpleNamespace(vec3=vec3, vec4=vec4, mat33=mat33, eigen=eigen_kernel, structure_update=structure_update,
+                           p2g=p2g, reached_nodes=reached_nodes, mirror_fold=mirror_fold, grid_update=grid_update,
+                           g2p=g2p, grid_gradient=grid_gradient, add_momentum=add_momentum,
                            capillary_stress=capillary_stress, capillary_force=capillary_force,
                            return_mapping=return_mapping, hb_excess=hb_excess_kernel)
 

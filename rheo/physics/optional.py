@@ -11,6 +11,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+OPEN_DRAG_TERMS = ("floor early", "floor late", "bulk early", "bulk late")
+
 
 @dataclass(frozen=True)
 class OptionalPhysics:
@@ -24,7 +26,11 @@ class OptionalPhysics:
     ``wall_adhesion`` (Pa): a traction with which every non-sticky collider holds the material touching it, against
     sliding and separating alike and whatever the pressure (unlike Coulomb friction).
     ``surface_tension`` (N/m): the free surface's tension, as the continuum surface stress of the material's volume
-    fraction on the grid (Lafaurie et al. 1994); the walls are neutral (a contact angle left free)."""
+    fraction on the grid (Lafaurie et al. 1994); the walls are neutral (a contact angle left free).
+    ``open_drag`` (1/s, signed): a generic discrepancy, a linear drag -rate v on the material whose rate blends four
+    values, (floor early, floor late, bulk early, bulk late): near the floor y = 0 (weight exp(-height /
+    ``open_layer``, m)) or above it, and from the release to ``open_span`` (s), linearly; a negative rate drives
+    the flow instead of holding it."""
 
     air_drag: float = 0.0
     thixotropy: float = 0.0
@@ -32,11 +38,21 @@ class OptionalPhysics:
     thixotropy_exponent: float = 1.0
     wall_adhesion: float = 0.0
     surface_tension: float = 0.0
+    open_drag: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
+    open_layer: float = 1.0
+    open_span: float = 1.0
 
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            if not (math.isfinite(value) and value >= 0.0):
+            if f.name == "open_drag":
+                if len(value) != len(OPEN_DRAG_TERMS) or not all(math.isfinite(v) for v in value):
+                    raise ValueError(f"optional physics open_drag = {value!r} must be {len(OPEN_DRAG_TERMS)} finite "
+                                     f"rates (1/s: {', '.join(OPEN_DRAG_TERMS)})")
+            elif not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"optional physics {f.name} = {value!r} must be finite and >= 0")
+        if not (self.open_layer > 0.0 and self.open_span > 0.0):
+            raise ValueError(f"optional physics open_layer {self.open_layer!r} m and open_span {self.open_span!r} s "
+                             "must be > 0")
         if self.thixotropy_floor >= 1.0:
             raise ValueError(f"optional physics thixotropy_floor = {self.thixotropy_floor!r} must be below 1")

@@ -491,7 +491,9 @@ class _Run:
             self._launch("grid_update", i, lambda: (
                 k.grid_update, box, [m, mv, s(self.dt), now, s(sim.dx), k.vec3(*sim.gravity), self.shapes, self.laws,
                                      self.geom, self.timing, self.bnd, s(self.min_mass), corner,
-                                     s(self.adhesion_cut), s(physics.air_drag), s(self.face_mass)], [gv]),
+                                     s(self.adhesion_cut), s(physics.air_drag), s(self.face_mass),
+                                     k.vec4(*physics.open_drag), s(-sim.domain_origin[1]), s(physics.open_layer),
+                                     s(physics.open_span)], [gv]),
                          dim=box, changed={GRID_UPDATE_TIME: now, GRID_UPDATE_LOW: corner})
             if phase == self.steps_per_transfer - 1:
                 self._launch("g2p", i, lambda: (k.g2p, len(x), [x, gv, s(self.dt * self.steps_per_transfer),

@@ -11,7 +11,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from rheo.diagnose.candidates import CANDIDATES
+from rheo.diagnose.candidates import CANDIDATES, OPEN_DRAG
+from rheo.experiments.dam_break import OPEN_LAYER
 from rheo.report.html import figure_tag, image_tag, table_tag
 from rheo.report.virheometry import overlay_grid
 
@@ -62,6 +63,40 @@ def profiles_figure(candidates: list[dict], base_loss: float):
     return fig
 
 
+def open_drag_figure(rates: list[float]):
+    """The open drag's rate (1/s) over height above the floor (material heights) and time (share of the recording):
+    where and when it holds the material back (red) or drives it (blue)."""
+    floor_early, floor_late, bulk_early, bulk_late = rates
+    height, time = np.meshgrid(np.linspace(0.0, 1.5, 61), np.linspace(0.0, 1.0, 41), indexing="ij")
+    floor = np.exp(-height / OPEN_LAYER)
+    rate = (floor * ((1 - time) * floor_early + time * floor_late)
+            + (1 - floor) * ((1 - time) * bulk_early + time * bulk_late))
+    largest = max(float(np.abs(rate).max()), 1e-9)
+    fig, ax = plt.subplots(figsize=(4.2, 2.8))
+    image = ax.pcolormesh(time, height, rate, cmap="RdBu_r", vmin=-largest, vmax=largest, shading="auto")
+    fig.colorbar(image, ax=ax, label="drag rate (1/s)")
+    ax.set_xlabel("time, share of the recording")
+    ax.set_ylabel("height above the floor\n(material heights)")
+    fig.tight_layout()
+    return fig
+
+
+def open_drag_section(record: dict) -> str:
+    """The open drag's refit: its verdict, losses and the map of where and when it acts."""
+    fitted = record["open"]
+    if fitted is None:
+        return ""
+    rates = [fitted["values"][name] for name in OPEN_DRAG]
+    said = "explains part of the mismatch" if fitted["explains"] else "does not explain the mismatch"
+    return (f"<h3>An open drag</h3><p>No candidate was named, so a generic drag (a rate that is free near the floor "
+            f"and above it, early and late) was fitted with the law: it {said} (change of the criterion "
+            f"{fitted['delta_criterion']:+.2f}; fitted loss {_value(fitted['loss_px'])} px, held out between "
+            f"{_value(fitted['held_out_loss_px'])} px, last frames {_value(fitted['forecast_loss_px'])} px). It "
+            f"{fitted['words']}.</p>"
+            + figure_tag(open_drag_figure(rates), "the open drag's rate over height and time: red holds the "
+                         "material back, blue drives the flow"))
+
+
 def _value(v) -> str:
     return "-" if v is None else f"{v:.4g}"
 
@@ -100,7 +135,7 @@ def section(record: dict, maps: bytes | None = None, extra: str = "") -> str:
         profiles_figure(record["candidates"], record["base"]["loss_px"]),
         "each candidate's profile: the lowest loss with the effect held at each magnitude, the law refitted there "
         "(dashed: the base fit; in brackets, the change of the criterion; red: decoys)"))
-    return verdict + mismatch + criterion + table + profiles + figure + extra
+    return verdict + mismatch + criterion + table + profiles + open_drag_section(record) + figure + extra
 
 
 def confusion_figure(truths: list[str], named: list[str], labels: list[str]):

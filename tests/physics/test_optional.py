@@ -1,5 +1,5 @@
-"""Optional physics against closed forms: quadratic air drag, wall adhesion's hold, thixotropic breakdown, a drop's
-capillary pressure and oscillation; each off at its null value."""
+"""Optional physics against closed forms: quadratic air drag, the open linear drag, wall adhesion's hold, thixotropic
+breakdown, a drop's capillary pressure and oscillation; each off at its null value."""
 
 import math
 
@@ -33,6 +33,32 @@ def test_air_drag_fall_follows_the_quadratic_drag_law():
     assert rel.max() < 5e-3, rel
     free, _ = _fall(OptionalPhysics(), g)
     assert float(free[-1] / drop[-1]) > 1.15  # the drag did slow the fall
+
+
+def _glide(open_drag: tuple[float, float, float, float], layer: float, span: float = 0.4) -> tuple[torch.Tensor,
+                                                                                                    torch.Tensor]:
+    """Mean x velocity (m/s) of an elastic block gliding from 0.5 m/s without gravity, its centre 0.5 m above y = 0,
+    and the frame times."""
+    sim = Simulator(NeoHookean(mu=1.0e3, lam=1.0e3), resolution=16, gravity=(0.0, 0.0, 0.0), dtype=torch.float64,
+                    physics=OptionalPhysics(open_drag=open_drag, open_layer=layer, open_span=span))
+    x0, vol = box((0.25, 0.45, 0.4), (0.4, 0.55, 0.6), sim.dx / 2)
+    tr = sim.rollout(x0, torch.tensor([0.5, 0.0, 0.0], dtype=torch.float64), frames=6, frame_dt=0.1,
+                     particle_volume=vol, dt=5e-4)
+    return tr.v[:, :, 0].mean(dim=1), tr.times
+
+
+@pytest.mark.parametrize(("drag", "layer"), [((0.0, 0.0, 2.0, -1.0), 0.01),  # the bulk's rates, far from the floor
+                                             ((2.0, -1.0, 0.0, 0.0), 1.0e4)])  # the floor's, a layer wider than all
+def test_open_drag_slows_or_drives_a_glide_as_its_rate_turns_from_early_to_late(drag, layer):
+    """dv/dt = -r(t) v, r going linearly from the early rate a to the late one b over the span T:
+    v = v0 exp(-(a t + (b - a) t^2 / (2 T))) up to T, then at the rate b."""
+    span, (a, b) = 0.4, [r for r in drag if r != 0.0]
+    v, times = _glide(drag, layer, span)
+    within = torch.clamp(times, max=span)
+    exponent = a * within + (b - a) * within**2 / (2 * span) + b * (times - within)
+    assert torch.allclose(v, 0.5 * torch.exp(-exponent), rtol=2e-3), (v, 0.5 * torch.exp(-exponent))
+    unchanged, _ = _glide((drag[2], drag[3], drag[0], drag[1]), layer, span)  # the same rates on the other part
+    assert torch.allclose(unchanged, torch.full_like(unchanged, 0.5), rtol=1e-4)
 
 
 def _hanging_drop(adhesion: float, contact: str = "slip") -> float:
@@ -145,7 +171,7 @@ def test_optional_physics_at_their_null_values_change_nothing_and_thixotropy_is_
     x0, vol = box((0.4, 0.2, 0.4), (0.6, 0.4, 0.6), 1.0 / 32)
     runs = []
     for physics in (OptionalPhysics(), OptionalPhysics(air_drag=1.0, thixotropy=1.0, wall_adhesion=100.0,
-                                                            surface_tension=0.05)):
+                                                            surface_tension=0.05, open_drag=(1.0, 0.0, 0.0, 0.0))):
         sim = Simulator(material, resolution=16, colliders=[Floor(height=0.19, contact="slip")], physics=physics)
         runs.append(sim.rollout(x0, torch.zeros(3), frames=2, frame_dt=0.05, particle_volume=vol).x)
     base = Simulator(material, resolution=16, colliders=[Floor(height=0.19, contact="slip")])
@@ -159,5 +185,7 @@ def test_optional_physics_at_their_null_values_change_nothing_and_thixotropy_is_
         capillary.rollout(x0, torch.zeros(3, requires_grad=True), frames=1, frame_dt=0.05, particle_volume=vol)
     with pytest.raises(ValueError, match="air_drag"):
         OptionalPhysics(air_drag=-1.0)
+    with pytest.raises(ValueError, match="open_drag"):
+        OptionalPhysics(open_drag=(1.0, 2.0, math.nan, 0.0))
     with pytest.raises(ValueError, match=r"thixotropy_floor = 1\.0 must be below 1"):
         OptionalPhysics(thixotropy=1.0, thixotropy_floor=1.0)

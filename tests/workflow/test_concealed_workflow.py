@@ -21,7 +21,7 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
         "  lab: {cells_per_height: 5, cells_across: 5}\n"
         "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1}\n"
         "diagnose: {candidates: [floor_friction, gravity_tilt], rung_evaluations: 2, refit_evaluations: 2,\n"
-        "           held_out_every: 3, forecast_share: 0.25}\n")
+        "           open_evaluations: 8, held_out_every: 3, forecast_share: 0.25}\n")
     run = workflow.run("results/concealed/summary.html", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
     result = workflow.root / "results/concealed"
@@ -44,6 +44,13 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     if plain["chosen"] is None:  # never "nothing missing": what remains, where and when
         assert plain["verdict"].startswith(f"no candidate explains the mismatch that remains ({anonymous('plain')}_")
         assert "frames" in plain["verdict"]
+    for record, name in ((plain, "plain"), (diagnosis, "sliding")):
+        report = (result / name / "diagnosis/report.html").read_text()
+        if record["chosen"] is None:  # the open drag, fitted from the base law without drag, ends no worse
+            assert record["open"]["loss_px"] <= record["base"]["loss_px"] and "An open drag" in report
+            assert set(record["open"]["values"]) >= {"drag_floor_early", "drag_bulk_late"}
+        else:
+            assert record["open"] is None and "An open drag" not in report
     # a tilt of 0 is the base model itself, and every profile starts there: no refit ends worse than the base fit
     tilt, = (c for c in diagnosis["candidates"] if c["effect"] == "gravity_tilt")
     assert tilt["loss_px"] <= diagnosis["base"]["loss_px"]
