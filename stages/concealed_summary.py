@@ -32,8 +32,18 @@ def before_after(losses: list[float | None]) -> str:
     return "-" if not losses[0] else f"{losses[0]:.3g} / {losses[1]:.3g} ({change(losses):+.0f} %)"
 
 
+def open_drag(diagnosis: dict) -> str:
+    """The open drag's answer where it was fitted: its change of the criterion, and where and when it acts if it
+    explains part of the mismatch."""
+    fitted = diagnosis["open"]
+    if fitted is None:
+        return "-"
+    return f"{fitted['delta_criterion']:+.1f}" + (f": {fitted['words']}" if fitted["explains"] else "")
+
+
 rows, truths, named, records = [], [], [], []
 hits = effects = null_ok = nulls = outside = outside_ok = held_ok = last_ok = reduced = shown = shown_hits = 0
+opened = open_explains = 0
 for case, d_path, t_path, f_path, o_path in zip(smk.params.cases, smk.input.diagnoses, smk.input.truths,
                                                 smk.input.fits, smk.input.oracles, strict=True):
     diagnosis, truth, fit, oracle = read_json(d_path), read_json(t_path), read_json(f_path), read_json(o_path)
@@ -63,19 +73,24 @@ for case, d_path, t_path, f_path, o_path in zip(smk.params.cases, smk.input.diag
         last_ok += change(last) <= -30
         reduced += bias(after, truth) < bias(base, truth)
     best = diagnosis["candidates"][0] if diagnosis["candidates"] else None
+    opened += diagnosis["open"] is not None
+    open_explains += bool(diagnosis["open"] and diagnosis["open"]["explains"])
     concealed = ", ".join(f"{e['effect']} {e['magnitude']:g}" for e in truth["effects"]) or "none"
     records.append({"case": case, "concealed": truth["effects"], "named": chosen,
                     "named_magnitude": diagnosis["magnitude"],
                     "held_out_change_pct": json_number(change(held)), "forecast_change_pct": json_number(change(last)),
                     "core_bias_pct": [bias(base, truth), bias(after, truth)],
                     "shown": bool(fit["loss_px"] > oracle["loss_px"]) if modelled else None,
+                    "open_drag": diagnosis["open"] and {k: diagnosis["open"][k]
+                                                            for k in ("explains", "delta_criterion", "words")},
                     "runtime_min": diagnosis["runtime_s"] / 60})
     rows.append([case, concealed, chosen,
                  "-" if diagnosis["magnitude"] is None else f"{diagnosis['magnitude']:.3g}",
                  "-" if best is None else f"{best['effect']} {best['delta_criterion']:+.1f}",
                  before_after(held), before_after(last),
                  f"{bias(base, truth):.1f} / {bias(after, truth):.1f}",
-                 f"{fit['loss_px']:.3g} / {oracle['loss_px']:.3g}", f"{diagnosis['runtime_s'] / 60:.1f}"])
+                 open_drag(diagnosis), f"{fit['loss_px']:.3g} / {oracle['loss_px']:.3g}",
+                 f"{diagnosis['runtime_s'] / 60:.1f}"])
     log.info("%s: concealed %s, named %s; held out between fitted frames %s, last frames %s; core bias %.1f -> %.1f "
              "%%", case, concealed, chosen, before_after(held), before_after(last), bias(base, truth),
              bias(after, truth))
@@ -88,13 +103,15 @@ score = (f"<p>Top-1 correct: {hits} of {effects} cases with an effect ({100 * hi
          f"fitted ones: {held_ok} of {effects}, on the last frames (a prediction): {last_ok} of {effects}; core "
          f"parameters' bias (tau_y, K) reduced by the refit: {reduced} of {effects}. "
          f"The recording shows the effect at the fit's resolution (the base fit's loss above the truth's in the "
-         f"fit's own simulation) in {shown} of {effects} cases; of those, {shown_hits} named correctly.</p>")
+         f"fit's own simulation) in {shown} of {effects} cases; of those, {shown_hits} named correctly. Where "
+         f"nothing was named, the open drag explained part of the mismatch in {open_explains} of {opened} cases.</p>")
 log.info("top-1 %d/%d, nulls %d/%d, outside %d/%d, held out >= 30 %% down %d/%d (last frames %d/%d), bias reduced "
          "%d/%d", hits, effects, null_ok, nulls, outside_ok, outside, held_ok, effects, last_ok, effects, reduced,
          effects)
 table = table_tag(["case", "concealed effects", "named", "fitted magnitude", "best candidate (criterion)",
                    "held out between fitted frames, before / after (px)",
                    "last frames (a prediction), before / after (px)", "core bias before / after (%)",
+                   "open drag (criterion): where and when it acts",
                    "base fit / truth in the fit's simulation (px)", "diagnosis (min)"], rows)
 body = (f"<h2>Confusion table</h2>{score}{confusion_section(truths, named, labels)}"
         f"<h2>Cases</h2>{table}<p>Each case's page: results/concealed/&lt;case&gt;/diagnosis/report.html.</p>")
@@ -103,5 +120,6 @@ write_json_atomic(smk.output.scores, {
     "code_version": code_version(), "suite": smk.params.suite, "cases": len(records), "with_effect": effects,
     "null": nulls, "outside": outside, "top1": hits, "false_alarms": nulls - null_ok + outside - outside_ok,
     "held_out_down_30pct": held_ok, "forecast_down_30pct": last_ok,
-    "core_bias_reduced": reduced, "shown": shown, "shown_named": shown_hits,
+    "core_bias_reduced": reduced, "shown": shown, "shown_named": shown_hits, "open_drag_fitted": opened,
+    "open_drag_explains": open_explains,
     "runtime_min": sum(r["runtime_min"] for r in records), "by_case": records})

@@ -1,6 +1,7 @@
 """The convergence study: Richardson extrapolation against sequences of known order and limit, the study's summary
 on constructed rows, and a small study of a real recording that resumes from its stored simulations."""
 
+import dataclasses
 from argparse import ArgumentTypeError
 from pathlib import Path
 
@@ -100,6 +101,13 @@ def test_a_study_of_a_real_recording_refines_the_flow_and_resumes_from_its_store
     monkeypatch.setattr(convergence, "measure", never)
     resumed = run(cases, SIMULATION, 0.5, EvaluationStore(store.path, store.fingerprint), workers=1)
     assert resumed == rows
+    # a law that another machine's SciPy fits a few parts in 1e8 apart is the same study
+    def nudged(share: float) -> list:
+        return [dataclasses.replace(c, law=tuple(v * (1 + share) for v in c.law)) for c in cases]
+
+    assert len(run(nudged(3e-8), SIMULATION, 0.5, EvaluationStore(store.path, store.fingerprint), workers=1)) == 3
+    with pytest.raises(AssertionError, match="run again"):  # another law is another study
+        run(nudged(1e-4), SIMULATION, 0.5, EvaluationStore(store.path, store.fingerprint), workers=1)
     with pytest.raises(AssertionError, match="run again"):  # another engine's records are not reused
         run(cases[:1], SIMULATION, 0.5, EvaluationStore(store.path, "another engine"), workers=1)
 

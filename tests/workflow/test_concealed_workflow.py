@@ -75,4 +75,5 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     assert scores["top1"] == (diagnosis["chosen"] == "floor_friction")
     assert [c["case"] for c in scores["by_case"]] == ["plain", "sliding"] and scores["code_version"]
     assert scores["suite"] == {"seed": 5, "count": 2}  # as the folder's suite.json says
+    assert scores["open_drag_fitted"] == sum(d["open"] is not None for d in (plain, diagnosis))
     assert not list(result.glob("*/*/*.evaluations.json"))
