@@ -77,8 +77,8 @@ def open_drag_words(rates: np.ndarray) -> str:
 @dataclass
 class Diagnosis:
     """The base fit, every candidate's short refit, the chosen effect's longer refit (None: no candidate explains the
-    mismatch), the comparisons before and after by setup, where the base fit's mismatch lies, and the open drag's
-    refit where no candidate is chosen (None if not fitted)."""
+    mismatch), the comparisons before and after by setup, where the base fit's mismatch lies (and the chosen
+    refit's, ``remains``), and the open drag's refit where no candidate is chosen (None if not fitted)."""
 
     law: Law
     base: Refit
@@ -89,6 +89,7 @@ class Diagnosis:
     location: dict[str, Location]
     evidence: float
     open: Refit | None = None
+    remains: dict[str, Location] | None = None
 
     def values(self, refit: Refit) -> dict[str, float]:
         """The law and the effect of a refit (a candidate's or the open drag's), in their units."""
@@ -106,11 +107,25 @@ class Diagnosis:
         """Whether the open drag lowers the criterion below the base model's by the evidence asked of an effect."""
         return self.open is not None and self.open.criterion < self.base.criterion - self.evidence
 
+    @staticmethod
+    def worst(location: dict[str, Location]) -> str:
+        """The setup that shows the most mismatch and where and when it lies there."""
+        name = max(location, key=lambda n: location[n].total.sum())
+        return f"{name}: {location[name].words()}"
+
+    def verdict(self) -> str:
+        """The chosen effect and the mismatch that remains after it, or ``unexplained``."""
+        if self.chosen is None:
+            return self.unexplained()
+        title = CANDIDATES[self.chosen.name].title
+        if not self.remains:
+            return title
+        return f"{title}; the mismatch that remains after it ({self.worst(self.remains)})"
+
     def unexplained(self) -> str:
         """The verdict where no candidate is named: the mismatch that remains, where and when, in the setup that
         shows the most of it, and what the open drag says of it where it explains it."""
-        worst = max(self.location, key=lambda name: self.location[name].total.sum())
-        verdict = f"no candidate explains the mismatch that remains ({worst}: {self.location[worst].words()})"
+        verdict = f"no candidate explains the mismatch that remains ({self.worst(self.location)})"
         if self.open_explains:
             verdict += (f"; an open drag explains part of it ({self.base.loss:.3g} to {self.open.loss:.3g} px): it "
                         f"{open_drag_words(self.open.x[-len(OPEN_DRAG):])}")
@@ -124,6 +139,10 @@ class Diagnosis:
                     "forecast_loss_px": json_number(refit.forecast_loss), "criterion": refit.criterion,
                     "parameters": refit.parameters, "values": self.values(refit)}
 
+        def mismatch(location: dict[str, Location]) -> dict:
+            return {name: {"words": loc.words(), "by_region": loc.by_region(),
+                           "pixels_by_frame": loc.by_frame().tolist()} for name, loc in location.items()}
+
         ranked = sorted(self.candidates, key=lambda r: r.criterion)
         chosen = self.chosen
         after = chosen or self.base
@@ -132,14 +151,14 @@ class Diagnosis:
                           "Herschel-Bulkley" if self.law.n is None else f"Herschel-Bulkley, n = {self.law.n}",
             "criterion": "BIC of per-frame boundary distances, N log(SSE/N) + k log N, over the fitted frames",
             "evidence": self.evidence,
-            "mismatch": {name: {"words": loc.words(), "by_region": loc.by_region(),
-                                "pixels_by_frame": loc.by_frame().tolist()} for name, loc in self.location.items()},
+            "mismatch": mismatch(self.location),
+            "mismatch_after": None if self.remains is None else mismatch(self.remains),
             "base": fit(self.base),
             "candidates": [{"effect": r.name, "title": CANDIDATES[r.name].title, "decoy": CANDIDATES[r.name].decoy,
                             "delta_criterion": r.criterion - self.base.criterion, **fit(r),
                             "profile": [list(p) for p in r.profile]} for r in ranked],
             "chosen": None if chosen is None else chosen.name,
-            "verdict": CANDIDATES[chosen.name].title if chosen is not None else self.unexplained(),
+            "verdict": self.verdict(),
             "magnitude": None if chosen is None else self.values(chosen)[chosen.name],
             "refit": None if chosen is None else fit(chosen),
             "open": None if self.open is None else {
@@ -238,9 +257,10 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
             opened = Refit.of("open", log.best("open"))
             logger.info("open drag: loss %.4g px (base %.4g), criterion %+.2f", opened.loss, base.loss,
                         opened.criterion - base.criterion)
-    location = {}
-    for name, comparison in before.items():
-        setup = records[name]
-        labels = [str(k + 1) for k in range(len(setup.masks))]
-        location[name] = locate(setup, list(comparison.silhouettes), setup.masks, labels)
-    return Diagnosis(law, base, found, chosen, before, after, location, settings["evidence"], opened)
+
+    def located(comparisons: dict[str, Comparison]) -> dict[str, Location]:
+        return {name: locate(records[name], list(c.silhouettes), records[name].masks,
+                             [str(k + 1) for k in range(len(records[name].masks))]) for name, c in comparisons.items()}
+
+    return Diagnosis(law, base, found, chosen, before, after, located(before), settings["evidence"], opened,
+                     None if chosen is None else located(after))

@@ -49,8 +49,9 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
         if record["chosen"] is None:  # the open drag, fitted from the base law without drag, ends no worse
             assert record["open"]["loss_px"] <= record["base"]["loss_px"] and "An open drag" in report
             assert set(record["open"]["values"]) >= {"drag_floor_early", "drag_bulk_late"}
-        else:
+        else:  # a second effect, or one no candidate models, may remain: the verdict says where and when
             assert record["open"] is None and "An open drag" not in report
+            assert "the mismatch that remains after it" in record["verdict"] and record["mismatch_after"]
     # a tilt of 0 is the base model itself, and every profile starts there: no refit ends worse than the base fit
     tilt, = (c for c in diagnosis["candidates"] if c["effect"] == "gravity_tilt")
     assert tilt["loss_px"] <= diagnosis["base"]["loss_px"]

@@ -1,5 +1,5 @@
-"""The open candidate: a drag free where and when it acts, fitted where no named effect explains the mismatch, said
-in words where it pays for its four parameters."""
+"""The diagnosis' verdict: a named effect and the mismatch that remains after it; where none is named, the open
+candidate, a drag free where and when it acts, said in words where it pays for its four parameters."""
 
 import numpy as np
 import pytest
@@ -28,16 +28,34 @@ def test_the_words_name_the_terms_of_at_least_half_the_strongest_rate():
     assert open_drag_words(np.zeros(4)) == "nowhere"
 
 
+FRAMES = 20
+
+
+def _lagging_front(last: int) -> dict[str, Location]:
+    """A setup whose simulated front lags behind the recording's in the ``last`` frames."""
+    missing = np.zeros((FRAMES, len(REGIONS)))
+    missing[-last:, REGIONS.index("front")] = 100.0
+    return {"setup_1": Location(np.zeros_like(missing), missing, [str(k + 1) for k in range(FRAMES)])}
+
+
 def _diagnosis(open_distances: np.ndarray) -> Diagnosis:
     """No candidate named; the base fit's distances 1 px on 20 frames, the open drag's refit ``open_distances``."""
-    frames = 20
-    base = Refit("base", np.log([20.0, 2.0]), 1.0, 1.0, np.ones(frames), 2)
+    base = Refit("base", np.log([20.0, 2.0]), 1.0, 1.0, np.ones(FRAMES), 2)
     opened = Refit("open", np.r_[np.log([20.0, 2.0]), 0.0, 5.0, 0.0, 0.0], float(open_distances.mean()), 1.0,
                    open_distances, 6)
-    missing = np.zeros((frames, len(REGIONS)))
-    missing[-5:, REGIONS.index("front")] = 100.0  # the simulated front lags in the late frames
-    location = {"setup_1": Location(np.zeros_like(missing), missing, [str(k + 1) for k in range(frames)])}
-    return Diagnosis(Law(n=1.0), base, [], None, {}, {}, location, EVIDENCE, opened)
+    return Diagnosis(Law(n=1.0), base, [], None, {}, {}, _lagging_front(5), EVIDENCE, opened)
+
+
+def test_a_named_effect_comes_with_the_mismatch_that_remains_after_it():
+    base = Refit("base", np.log([20.0, 2.0]), 1.0, 1.0, np.ones(FRAMES), 2)
+    sliding = Refit("floor_friction", np.r_[np.log([20.0, 2.0]), np.log(0.3)], 0.5, 0.5, np.full(FRAMES, 0.5), 3)
+    diagnosis = Diagnosis(Law(n=1.0), base, [sliding], sliding, {}, {}, _lagging_front(15), EVIDENCE,
+                          remains=_lagging_front(3))
+    record = diagnosis.record()
+    assert record["chosen"] == "floor_friction" and record["open"] is None
+    assert record["verdict"] == ("floor friction (the material slides on the floor); the mismatch that remains after "
+                                 f"it (setup_1: {_lagging_front(3)['setup_1'].words()})")
+    assert "late" in record["verdict"] and record["mismatch_after"]["setup_1"]["by_region"]["front"] == 1.0
 
 
 def test_an_open_drag_that_pays_for_its_rates_says_where_and_when_it_acts():
