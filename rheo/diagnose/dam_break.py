@@ -118,7 +118,7 @@ class Diagnosis:
         if self.chosen is None:
             return self.unexplained()
         title = CANDIDATES[self.chosen.name].title
-        if not self.remains:
+        if not self.remains or all(loc.total.sum() == 0 for loc in self.remains.values()):
             return title
         return f"{title}; the mismatch that remains after it ({self.worst(self.remains)})"
 
