@@ -8,8 +8,8 @@ images' share to the grid after ``p2g``. Between transfers a few steps apart, a 
 and advances the grid's momentum alone: ``grid_gradient`` (the velocity gradient at the particles), ``eigen``,
 ``p2g`` without the transfer (the stress' impulse alone), ``add_momentum``, ``grid_update``. A thixotropic material's
 ``structure_update`` accumulates each particle's plastic shear strain (``OptionalPhysics``: it lowers the yield
-stress in ``p2g``; air drag, wall adhesion and the open drag act in ``grid_update``; surface tension is the impulse that
-``capillary_force`` adds to the grid's momentum from the cells' ``capillary_stress``, before ``grid_update``).
+stress in ``p2g``; air drag, wall adhesion and the open drag act in ``grid_update``; surface tension is the impulse
+that ``capillary_force`` adds to the grid's momentum from the cells' ``capillary_stress``, before ``grid_update``).
 Every input a loss may depend on (particle state, material parameters, boundary parameters) is a Warp array, so
 Warp's generated adjoints give the gradients.
 The plastic return on Hencky strain has a hand-written adjoint (divided differences of the eigenvalues) that stays
@@ -607,7 +607,7 @@ def build(scalar: type) -> SimpleNamespace:
         if air_drag > zero:  # quadratic drag, implicit: stable at any step
             v = v / (one + dt * air_drag * wp.length(v))
         node = vec3(scalar(i), scalar(j), scalar(k)) * dx
-        if wp.length(open_drag) > zero:  # the generic discrepancy's linear drag, implicit
+        if open_span > zero:  # the generic discrepancy's linear drag (a span of 0: none), implicit
             late = wp.min(time / open_span, one)
             floor = wp.exp(-wp.max(node[1] - open_floor, zero) / open_layer)
             rate = floor * ((one - late) * open_drag[0] + late * open_drag[1]) \

@@ -493,7 +493,7 @@ class _Run:
                                      self.geom, self.timing, self.bnd, s(self.min_mass), corner,
                                      s(self.adhesion_cut), s(physics.air_drag), s(self.face_mass),
                                      k.vec4(*physics.open_drag), s(-sim.domain_origin[1]), s(physics.open_layer),
-                                     s(physics.open_span)], [gv]),
+                                     s(physics.open_span if any(physics.open_drag) else 0.0)], [gv]),
                          dim=box, changed={GRID_UPDATE_TIME: now, GRID_UPDATE_LOW: corner})
             if phase == self.steps_per_transfer - 1:
                 self._launch("g2p", i, lambda: (k.g2p, len(x), [x, gv, s(self.dt * self.steps_per_transfer),
