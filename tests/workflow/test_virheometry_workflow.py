@@ -3,8 +3,11 @@ with a small search and the material's page written, the summary's plan over all
 twelve given fits."""
 
 import csv
+import glob
 import html
 import json
+
+from rheo.experiments.rheometer import log_rms_error, read_flow_curve
 
 
 def test_a_setup_is_imported_and_fitted(workflow):
@@ -90,7 +93,14 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
         assert cells[3] == f"{0.5 + 0.05 * i:.3g} [0.4, 1.5]"
         assert cells[4] == "0.930, 0.980"  # the mean IoU of each setup
         assert cells[5] == f"{0.1 * (i + 1):.2g}-20"
-        assert cells[6] == ("yes" if i == 5 else "no") and cells[7] == f"{i + 1:.1f}"  # ridge, runtime (min)
+        # against the rheometer's curves over the band, where the material has some (Lotion's four)
+        law = (10.0 * (1 + i), 1.0 * (1 + i), 0.5 + 0.05 * i)
+        curves = [read_flow_curve(p) for p in sorted(glob.glob(
+            str(workflow.root.parent / f"shared/data/rheometer/{material}_*.csv")))]
+        assert len(curves) == (4 if material == "Lotion" else 0)
+        assert cells[6] == (", ".join(f"{log_rms_error(*law, c.within((0.1 * (i + 1), 20.0))):.3f}" for c in curves)
+                            or "-")
+        assert cells[7] == ("yes" if i == 5 else "no") and cells[8] == f"{i + 1:.1f}"  # ridge, runtime (min)
         assert f"<a href='{material}/report.html'>{material}</a>" in page
     assert page.count("<img") == 1  # the flow curves of all materials in one plot
 

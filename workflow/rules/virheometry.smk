@@ -124,6 +124,7 @@ rule virheometry_summary:
     input:
         params=expand("results/virheometry/{material}/fit/params.json", material=virheometry_materials()),
         reports=expand("results/virheometry/{material}/report.html", material=virheometry_materials()),
+        rheometer=[curve for m in virheometry_materials() for curve in config["virheometry"]["rheometer"].get(m, [])],
     output:
         report("results/virheometry/summary.html", caption="../report/summary.rst", category="Real dam breaks"),
     resources:
@@ -133,5 +134,6 @@ rule virheometry_summary:
         "logs/virheometry/summary.log",
     params:
         materials=virheometry_materials(),
+        rheometer={m: config["virheometry"]["rheometer"].get(m, []) for m in virheometry_materials()},
     script:
         "../../stages/virheometry_summary.py"
