@@ -1,5 +1,5 @@
-"""concealed_oracle: the concealed truth (its law, elastic constants and effects; not a camera roll, which the
-simulation cannot hold) in the fit's own simulation, compared with the recordings (the mean over the setups, as the
+"""concealed_oracle: the concealed truth (its law, elastic constants and effects; not a miscalibrated camera, which
+the simulation cannot hold) in the fit's own simulation, compared with the recordings (the mean over the setups, as the
 fit's loss): about the least loss any fit with the right effects can reach. Where the base fit already reaches below
 it, the recordings do not show the effect at the fit's resolution, and no diagnosis can name it."""
 

@@ -61,28 +61,35 @@ def rolled(camera: Camera, degrees: float) -> Camera:
     return dataclasses.replace(camera, c2w=camera.c2w @ roll)
 
 
+def zoomed(camera: Camera, share: float) -> Camera:
+    """The camera with its focal length ``share`` longer (negative: shorter) than its calibration says."""
+    return dataclasses.replace(camera, K=camera.K @ np.diag([1.0 + share, 1.0 + share, 1.0]) if share else camera.K)
+
+
 # The lab's own account of each effect it can film (written apart from the diagnosis' candidates, which the lab never
 # reads): the Effects field it sets, or the optional physics; shear thinning sets the law's n.
 EFFECT_FIELDS = {"floor_friction": "floor_friction", "wall_slip": "wall_slip", "gate_lift": "gate_lift_time"}
 PHYSICS_FIELDS = ("wall_adhesion", "thixotropy", "surface_tension", "air_drag")
-# what the lab can film that no candidate models: the camera rolled about its axis (deg) while the recording states
-# it level
-OUTSIDE_EFFECTS = ("camera_roll",)
+# what the lab can film that no candidate models, a camera miscalibrated: rolled about its axis (deg) while the
+# recording states it level, or its focal length longer by a share than the recording states
+OUTSIDE_EFFECTS = ("camera_roll", "camera_zoom")
 
 
 @dataclass(frozen=True)
 class Truth:
-    """What the lab films: the law (tau_y, K, n), the simulated effects and the camera's roll (deg)."""
+    """What the lab films: the law (tau_y, K, n), the simulated effects, the camera's roll (deg) and its focal
+    length's error (a share)."""
 
     law: dict[str, float]
     effects: Effects
     camera_roll: float = 0.0
+    camera_zoom: float = 0.0
 
 
 def concealed_truth(case: dict, base: dict[str, float]) -> Truth:
     """The law and effects the lab films: the case's own ``law`` (else ``base``), Bingham, with each of its
     ``effects`` ({effect, magnitude}) switched on."""
-    law, effects, roll = {"n": 1.0, **base, **case.get("law", {})}, Effects(), 0.0
+    law, effects, camera = {"n": 1.0, **base, **case.get("law", {})}, Effects(), {}
     for item in case.get("effects", []):
         name, magnitude = item["effect"], item["magnitude"]
         if name == "shear_thinning":
@@ -91,12 +98,12 @@ def concealed_truth(case: dict, base: dict[str, float]) -> Truth:
             effects = dataclasses.replace(effects, **{EFFECT_FIELDS[name]: magnitude})
         elif name in PHYSICS_FIELDS:
             effects = dataclasses.replace(effects, physics=dataclasses.replace(effects.physics, **{name: magnitude}))
-        elif name == "camera_roll":
-            roll += magnitude
+        elif name in OUTSIDE_EFFECTS:
+            camera[name] = camera.get(name, 0.0) + magnitude
         else:
             known = ["shear_thinning", *EFFECT_FIELDS, *PHYSICS_FIELDS, *OUTSIDE_EFFECTS]
             raise ValueError(f"unknown effect {name!r}; known: {', '.join(known)}")
-    return Truth(law, effects, roll)
+    return Truth(law, effects, **camera)
 
 
 def film(scene: dict, geometry: dict, index: int, lab: dict, name: str, truth: Truth, mu: float, lam: float,
@@ -104,7 +111,7 @@ def film(scene: dict, geometry: dict, index: int, lab: dict, name: str, truth: T
     """The lab's recording of a channel of material ``geometry``: ``scene["frames"]`` silhouettes, the first
     ``release`` s after the release (a whole number of 1/240 s), simulated at the ``lab``'s resolution
     (``cells_per_height``, ``cells_across``, ``particles_per_cell``, ``cfl``, ``transfer_cfl``; ``reach``: how far
-    past the gate (m) the simulated floor extends), filmed with the truth's camera roll."""
+    past the gate (m) the simulated floor extends), filmed with the truth's camera roll and focal length."""
     setup = channel(scene, geometry, index, name)
     if not setup.camera.pixels(setup.cuboid_corners())[1].all():
         raise ValueError(f"concealed channel {index}: the material ({setup.height:g} x {setup.width:g} m) "
@@ -118,7 +125,7 @@ def film(scene: dict, geometry: dict, index: int, lab: dict, name: str, truth: T
                          f"{RELEASE_STEP:.4g} s")
     steps = first + (scene["frames"] - 1) * per_frame
     positions = lab_scene.positions(lab_scene.rollout(material, steps * RELEASE_STEP, RELEASE_STEP, truth.effects))
-    camera = rolled(setup.camera, truth.camera_roll)
+    camera = zoomed(rolled(setup.camera, truth.camera_roll), truth.camera_zoom)
     container = container_silhouette(dataclasses.replace(setup, camera=camera))
     masks = [lab_view(camera, positions[first + k * per_frame], lab_scene.spacing)[1] | container
              for k in range(scene["frames"])]

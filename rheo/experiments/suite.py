@@ -30,6 +30,7 @@ MAGNITUDES: dict[str, tuple[float, float]] = {
     "surface_tension": (0.02, 0.1),  # N/m
     "air_drag": (2.0, 60.0),  # 1/m
     "camera_roll": (1.5, 5.0),  # deg, either way: no candidate models it
+    "camera_zoom": (0.015, 0.05),  # share of the focal length, either way: no candidate models it
 }
 KINDS = {"none": 0.15, "one": 0.55, "two": 0.15, "outside": 0.15}  # shares of the suite
 
@@ -45,7 +46,7 @@ def uniform(rng: np.random.Generator, low: float, high: float) -> float:
 
 def draw_effect(rng: np.random.Generator, name: str) -> dict:
     magnitude = log_uniform(rng, *MAGNITUDES[name])
-    if name == "camera_roll":
+    if name in OUTSIDE_EFFECTS:
         magnitude *= rng.choice([-1.0, 1.0])
     return {"effect": name, "magnitude": round(float(magnitude), 4)}
 

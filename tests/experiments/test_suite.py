@@ -5,10 +5,11 @@ import math
 from pathlib import Path
 
 import jsonschema
+import numpy as np
 import pytest
 import yaml
 
-from rheo.experiments.concealed import RELEASE_STEP, channel, concealed_truth
+from rheo.experiments.concealed import OUTSIDE_EFFECTS, RELEASE_STEP, channel, concealed_truth, zoomed
 from rheo.experiments.suite import MAGNITUDES, draw_suite
 from rheo.fit.bench import settings
 
@@ -29,7 +30,7 @@ def test_drawn_cases_are_valid_and_say_nothing_of_their_effects():
     for case in cases:
         jsonschema.validate(yaml.safe_load(yaml.safe_dump(case)), schema)  # as the case file holds it
         names = [e["effect"] for e in case["effects"]]
-        kinds["outside" if "camera_roll" in names else ("none", "one", "two")[len(names)]] += 1
+        kinds["outside" if set(names) & set(OUTSIDE_EFFECTS) else ("none", "one", "two")[len(names)]] += 1
         assert all(n not in case["name"] for n in MAGNITUDES) and len(case["name"]) == 9
         for effect in case["effects"]:
             low, high = MAGNITUDES[effect["effect"]]
@@ -47,11 +48,18 @@ def test_the_largest_drawn_channels_stay_in_the_scene_cameras_view():
         assert setup.camera.pixels(setup.cuboid_corners())[1].all()
 
 
-def test_the_lab_films_two_effects_at_once_and_a_camera_roll_no_candidate_models():
+def test_the_lab_films_two_effects_at_once_and_a_miscalibrated_camera_no_candidate_models():
     case = {"effects": [{"effect": "shear_thinning", "magnitude": 0.45}, {"effect": "thixotropy", "magnitude": 0.7},
-                        {"effect": "camera_roll", "magnitude": -2.0}], "law": {"tau_y": 12.0, "K": 1.5}}
+                        {"effect": "camera_roll", "magnitude": -2.0}, {"effect": "camera_zoom", "magnitude": 0.03}],
+            "law": {"tau_y": 12.0, "K": 1.5}}
     truth = concealed_truth(case, {"tau_y": 30.0, "K": 3.0})
     assert truth.law == {"tau_y": 12.0, "K": 1.5, "n": 0.45}
-    assert truth.effects.physics.thixotropy == 0.7 and truth.camera_roll == -2.0
+    assert truth.effects.physics.thixotropy == 0.7 and (truth.camera_roll, truth.camera_zoom) == (-2.0, 0.03)
+    # a focal length 3 % longer puts every point 3 % farther from the principal point
+    scene = settings(ROOT / "config/config.yaml")["concealed"]["scene"]
+    camera = channel(scene, {"height": 0.04, "width": 0.04}, 1, "view").camera
+    points = np.array([[0.0, 0.0, 0.0], [0.04, 0.04, 0.04], [0.1, 0.0, 0.02]])
+    centre = camera.K[:2, 2]
+    assert np.allclose(zoomed(camera, 0.03).project(points)[0] - centre, 1.03 * (camera.project(points)[0] - centre))
     with pytest.raises(ValueError, match="unknown effect"):
         concealed_truth({"effects": [{"effect": "magnetism", "magnitude": 1.0}]}, {"tau_y": 1.0, "K": 1.0})

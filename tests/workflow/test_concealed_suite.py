@@ -1,7 +1,7 @@
 """A small suite drawn from a seed, filmed, fitted, diagnosed and scored on tiny grids, whose score may not fall below
 the one measured when this guard was set: on grids this coarse the recordings do not show the drawn effects (the
 truth in the fit's simulation loses more than the base fit: none named, 0 of 2), so the guard is that nothing is
-named where nothing should be (the null case and the rolled camera)."""
+named where nothing should be (the null case and the miscalibrated camera)."""
 
 import json
 import os
