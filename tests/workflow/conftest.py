@@ -21,9 +21,9 @@ class Workflow:
         executable = shutil.which("snakemake") or str(Path(sys.executable).parent / "snakemake")
         return [executable, *args, "-j2"]
 
-    def run(self, *args: str) -> subprocess.CompletedProcess:
+    def run(self, *args: str, timeout: float = 600) -> subprocess.CompletedProcess:
         return subprocess.run(self.command(*args), cwd=self.root, env=self.env, capture_output=True, text=True,
-                              timeout=600)
+                              timeout=timeout)
 
 
 def scratch_workflow(folder: Path) -> Workflow:
