@@ -63,7 +63,7 @@ def rolled(camera: Camera, degrees: float) -> Camera:
 
 def zoomed(camera: Camera, share: float) -> Camera:
     """The camera with its focal length ``share`` longer (negative: shorter) than its calibration says."""
-    return dataclasses.replace(camera, K=camera.K @ np.diag([1.0 + share, 1.0 + share, 1.0]) if share else camera.K)
+    return dataclasses.replace(camera, K=camera.K @ np.diag([1.0 + share, 1.0 + share, 1.0]))
 
 
 # The lab's own account of each effect it can film (written apart from the diagnosis' candidates, which the lab never
