@@ -17,6 +17,7 @@ import numpy as np
 from scipy.optimize import nnls
 
 from rheo.experiments.dam_break import Effects
+from rheo.physics.optional import OPEN_DRAG_TERMS
 
 BAND_POINTS = 9  # shear rates, log-spaced over the band, at which a rung's law matches the last rung's stresses
 BREAKDOWN_STRAINS = (1.0, 3.0, 10.0)  # plastic strains whose breakdown a thixotropy rung's starts restore
@@ -149,9 +150,14 @@ def matched_law(law: np.ndarray, n: float, next_n: float, band: tuple[float, flo
 
 # The open candidate: a generic discrepancy fitted where no named effect explains the mismatch, the four rates (1/s)
 # of Effects.open_drag, searched as they are within a box (negative: the flow driven rather than held back)
-OPEN_DRAG = ("drag_floor_early", "drag_floor_late", "drag_bulk_early", "drag_bulk_late")
+OPEN_DRAG = tuple(f"drag_{term.replace(' ', '_')}" for term in OPEN_DRAG_TERMS)
 OPEN_BOX = (-5.0, 20.0)
 OPEN_STEP = 1.0  # initial simplex step of each rate, 1/s
+
+
+def open_rates(x) -> tuple[float, ...]:
+    """The open drag's rates (1/s): the last entries of a search vector."""
+    return tuple(float(r) for r in x[-len(OPEN_DRAG):])
 
 
 @dataclass(frozen=True)
@@ -176,5 +182,5 @@ class Law:
         if self.candidate is not None:
             law, effects = self.candidate.apply(self.candidate.value(float(x[-1])), law, effects)
         if self.open:
-            effects = dataclasses.replace(effects, open_drag=tuple(float(r) for r in x[-len(OPEN_DRAG):]))
+            effects = dataclasses.replace(effects, open_drag=open_rates(x))
         return law, effects

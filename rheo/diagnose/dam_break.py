@@ -11,13 +11,13 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
 
-from rheo.diagnose.candidates import CANDIDATES, OPEN_BOX, OPEN_DRAG, OPEN_STEP, Candidate, Law
+from rheo.diagnose.candidates import CANDIDATES, OPEN_BOX, OPEN_DRAG, OPEN_STEP, Candidate, Law, open_rates
 from rheo.diagnose.residuals import Location, locate
 from rheo.diagnose.selection import Refit, choose, finalists_refitted, profile_refit, refits
 from rheo.experiments.virheometry import Setup
@@ -61,7 +61,7 @@ def summary(results: list[Comparison]) -> dict:
             "distances": [float(d) for r in results for d in r.fitted_distances]}
 
 
-def open_drag_words(rates: np.ndarray) -> str:
+def open_drag_words(rates: Sequence[float]) -> str:
     """Where and when the open drag acts, in words: its terms of at least half the largest rate (1/s)."""
     largest = float(np.max(np.abs(rates)))
     parts = []
@@ -99,7 +99,7 @@ class Diagnosis:
         if candidate is not None:
             out[candidate.name] = candidate.value(float(refit.x[-1]))
         if refit.name == "open":
-            out |= {name: float(rate) for name, rate in zip(OPEN_DRAG, refit.x[-len(OPEN_DRAG):], strict=True)}
+            out |= dict(zip(OPEN_DRAG, open_rates(refit.x), strict=True))
         return out
 
     @property
@@ -128,7 +128,7 @@ class Diagnosis:
         verdict = f"no candidate explains the mismatch that remains ({self.worst(self.location)})"
         if self.open_explains:
             verdict += (f"; an open drag explains part of it ({self.base.loss:.3g} to {self.open.loss:.3g} px): it "
-                        f"{open_drag_words(self.open.x[-len(OPEN_DRAG):])}")
+                        f"{open_drag_words(open_rates(self.open.x))}")
         return verdict
 
     def record(self) -> dict:
@@ -163,7 +163,7 @@ class Diagnosis:
             "refit": None if chosen is None else fit(chosen),
             "open": None if self.open is None else {
                 **fit(self.open), "delta_criterion": self.open.criterion - self.base.criterion,
-                "explains": self.open_explains, "words": open_drag_words(self.open.x[-len(OPEN_DRAG):])},
+                "explains": self.open_explains, "words": open_drag_words(open_rates(self.open.x))},
             "loss_before_after_px": {"fitted": [self.base.loss, after.loss],
                                      "held_out": [self.base.held_out_loss, after.held_out_loss],
                                      "forecast": [json_number(self.base.forecast_loss),
@@ -228,14 +228,19 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
                                                            law.n or 1.0),
                        workers)  # a candidate per worker: a small setup's simulation does not wait for a large one
 
+        def searched(law_name: str, start: np.ndarray, effect_step, effect_low, effect_high, evaluations: int,
+                     phase: str) -> Refit:
+            """The best point of a simplex search from ``start`` with the law and the effect's coordinates free
+            (initial simplex: half the law's steps and ``effect_step``; box: the law's and the effect's)."""
+            box = (np.r_[law_box[0], effect_low], np.r_[law_box[1], effect_high])
+            simplex_search(evaluate(law_name), start, np.r_[0.5 * steps, effect_step], evaluations, phase, box=box)
+            return Refit.of(law_name, log.best(phase))
+
         def refit_free(profiled: Refit) -> Refit:
             """A longer search from a profile's best point with the law and the effect free."""
-            candidate, phase = CANDIDATES[profiled.name], f"final {profiled.name}"
-            low, high = candidate.bounds
-            box = (np.r_[law_box[0], low], np.r_[law_box[1], high])
-            simplex_search(evaluate(profiled.name), profiled.x, np.r_[0.5 * steps, 0.5 * candidate.step],
-                           settings["refit_evaluations"], phase, box=box)
-            final = Refit.of(profiled.name, log.best(phase))
+            candidate = CANDIDATES[profiled.name]
+            final = searched(profiled.name, profiled.x, 0.5 * candidate.step, *candidate.bounds,
+                             settings["refit_evaluations"], f"final {profiled.name}")
             return dataclasses.replace(final, profile=profiled.profile) if final.loss <= profiled.loss else profiled
 
         if settings["refit_evaluations"] > 0:
@@ -247,14 +252,12 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
         after = before if chosen is None else dict(zip(setups, evaluator.map(
             [(f"{chosen.name}|{s}", chosen.x) for s in setups]), strict=True))
         opened = None
-        if chosen is None and settings.get("open_evaluations", 0) > 0:
+        if chosen is None and settings["open_evaluations"] > 0:
             # what kind of physics is missing: a drag field free where and when it acts
             rates = len(OPEN_DRAG)
-            box = (np.r_[law_box[0], np.full(rates, OPEN_BOX[0])], np.r_[law_box[1], np.full(rates, OPEN_BOX[1])])
-            step = np.r_[0.5 * steps, np.full(rates, OPEN_STEP)]
-            simplex_search(evaluate("open"), np.r_[x_base, np.zeros(rates)], step, settings["open_evaluations"],
-                           "open", box=box)
-            opened = Refit.of("open", log.best("open"))
+            opened = searched("open", np.r_[x_base, np.zeros(rates)], np.full(rates, OPEN_STEP),
+                              np.full(rates, OPEN_BOX[0]), np.full(rates, OPEN_BOX[1]), settings["open_evaluations"],
+                              "open")
             logger.info("open drag: loss %.4g px (base %.4g), criterion %+.2f", opened.loss, base.loss,
                         opened.criterion - base.criterion)
 

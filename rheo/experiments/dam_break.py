@@ -158,8 +158,7 @@ class DamBreakScene:
         low, high = self.setup.cuboid
         return low, high if self.mid_plane is None else np.array([high[0], high[1], self.mid_plane])
 
-    def simulator(self, material: HerschelBulkley, effects: Effects | None = None,
-                  duration: float = 1.0) -> Simulator:
+    def simulator(self, material: HerschelBulkley, effects: Effects | None = None, *, duration: float) -> Simulator:
         """The scene's simulator of ``material`` with ``effects``, for a rollout of ``duration`` s (the open drag's
         span)."""
         effects = effects or Effects()
@@ -195,7 +194,7 @@ class DamBreakScene:
         mid-plane where the scene has one (``positions`` gives the whole material's)."""
         effects = effects or Effects()
         frames = int(np.ceil(duration / sample_dt - 1e-9))
-        simulator = self.simulator(material, effects, frames * sample_dt)
+        simulator = self.simulator(material, effects, duration=frames * sample_dt)
         # the flow speed, not the simulator's own bound (a fall from the domain's height), sets the step (an unstable
         # step is retried at half); a gate, a slip plate sliding along its own face, pushes nothing
         dt, _ = simulator.time_step(sample_dt, self.flow_speed)
