@@ -8,19 +8,22 @@ import warp as wp
 
 from rheo.fit.parallel import Evaluator
 from rheo.geometry.sampling import cylinder
-from rheo.physics import Floor, HerschelBulkley, SimulationError, Simulator
+from rheo.physics import Floor, HerschelBulkley, OptionalPhysics, SimulationError, Simulator
 from rheo.physics.simulator import resolve_device, set_default_device
 
 wp.init()
 HAS_CUDA = wp.get_cuda_device_count() > 0
 needs_cuda = pytest.mark.skipif(not HAS_CUDA, reason="Warp sees no CUDA GPU")
 MATERIAL = HerschelBulkley(tau_y=200.0, K=20.0, n=0.6, mu=2.0e4, lam=2.0e4)
+# every optional term that a rollout can differentiate, on at once
+OPTIONS = OptionalPhysics(air_drag=5.0, open_drag=(2.0, -1.0, 1.0, 0.5), open_layer=0.05, open_span=0.03)
 
 
-def _rollout(device: str, checkpoint_mb: float = 1024.0, dtype=torch.float64):
+def _rollout(device: str, checkpoint_mb: float = 1024.0, dtype=torch.float64,
+             physics: OptionalPhysics = OptionalPhysics()):
     """A 30-step slump of a small cylinder and the gradient of a loss on its last frame w.r.t. the material."""
     sim = Simulator(MATERIAL, resolution=16, colliders=[Floor(height=3.3 / 16)], dtype=dtype, device=device,
-                    checkpoint_mb=checkpoint_mb)
+                    checkpoint_mb=checkpoint_mb, physics=physics)
     x0, vol = cylinder((0.5, 0.5), 3.3 / 16, 0.12, 0.25, sim.dx / 2, dtype=dtype)
     mat = sim.material_parameters().requires_grad_()
     tr = sim.rollout(x0, torch.zeros(3), frames=3, frame_dt=0.01, particle_volume=vol, material_params=mat,
@@ -51,10 +54,10 @@ def test_checkpointed_chunks_match_one_chunk():
 @needs_cuda
 def test_gpu_matches_cpu():
     """Forward states and gradients on the GPU equal the CPU's within float tolerance (atomic sums run in another
-    order there)."""
-    for checkpoint_mb in (1024.0, 0.5):
-        x_cpu, grad_cpu = _rollout("cpu", checkpoint_mb)
-        x_gpu, grad_gpu = _rollout("cuda", checkpoint_mb)
+    order there), for the base model and with the optional terms on."""
+    for checkpoint_mb, physics in ((1024.0, OptionalPhysics()), (0.5, OptionalPhysics()), (1024.0, OPTIONS)):
+        x_cpu, grad_cpu = _rollout("cpu", checkpoint_mb, physics=physics)
+        x_gpu, grad_gpu = _rollout("cuda", checkpoint_mb, physics=physics)
         assert x_gpu.device.type == "cpu"
         torch.testing.assert_close(x_gpu, x_cpu, rtol=0, atol=1e-9)
         torch.testing.assert_close(grad_gpu, grad_cpu, rtol=1e-6, atol=1e-9 * float(grad_cpu.abs().max()))
