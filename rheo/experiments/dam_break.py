@@ -68,6 +68,9 @@ class Effects:
             raise DamBreakError(f"gravity tilt {self.gravity_tilt!r} rad must lie within (-pi/2, pi/2)")
         if not (math.isfinite(self.density_factor) and self.density_factor > 0):
             raise DamBreakError(f"density factor {self.density_factor!r} must be finite and > 0")
+        if any(self.physics.open_drag):
+            raise DamBreakError("a dam break's open drag is Effects.open_drag (the scene sets its layer and span), "
+                                "not Effects.physics.open_drag")
 
 
 def floor_footprint(camera: Camera, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:

@@ -9,7 +9,10 @@ the density and the gravity vector. The rest live here.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, fields
+
+import numpy as np
 
 OPEN_DRAG_TERMS = ("floor early", "floor late", "bulk early", "bulk late")
 
@@ -56,3 +59,14 @@ class OptionalPhysics:
                              "must be > 0")
         if self.thixotropy_floor >= 1.0:
             raise ValueError(f"optional physics thixotropy_floor = {self.thixotropy_floor!r} must be below 1")
+
+
+def open_drag_rate(rates: Sequence[float], height: np.ndarray, time: np.ndarray, layer: float,
+                   span: float) -> np.ndarray:
+    """The open drag's rate (1/s) at ``height`` (m) above the floor and ``time`` (s) after the release, blended from
+    its four ``rates`` as the simulator blends them (``OptionalPhysics``)."""
+    floor_early, floor_late, bulk_early, bulk_late = rates
+    late = np.minimum(np.asarray(time) / span, 1.0)
+    floor = np.exp(-np.maximum(np.asarray(height), 0.0) / layer)
+    return (floor * ((1 - late) * floor_early + late * floor_late)
+            + (1 - floor) * ((1 - late) * bulk_early + late * bulk_late))

@@ -13,6 +13,7 @@ import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES, OPEN_DRAG
 from rheo.experiments.dam_break import OPEN_LAYER
+from rheo.physics.optional import open_drag_rate
 from rheo.report.html import figure_tag, image_tag, table_tag
 from rheo.report.virheometry import overlay_grid
 
@@ -66,11 +67,8 @@ def profiles_figure(candidates: list[dict], base_loss: float):
 def open_drag_figure(rates: list[float]):
     """The open drag's rate (1/s) over height above the floor (material heights) and time (share of the recording):
     where and when it holds the material back (red) or drives it (blue)."""
-    floor_early, floor_late, bulk_early, bulk_late = rates
     height, time = np.meshgrid(np.linspace(0.0, 1.5, 61), np.linspace(0.0, 1.0, 41), indexing="ij")
-    floor = np.exp(-height / OPEN_LAYER)
-    rate = (floor * ((1 - time) * floor_early + time * floor_late)
-            + (1 - floor) * ((1 - time) * bulk_early + time * bulk_late))
+    rate = open_drag_rate(rates, height, time, layer=OPEN_LAYER, span=1.0)
     largest = max(float(np.abs(rate).max()), 1e-9)
     fig, ax = plt.subplots(figsize=(4.2, 2.8))
     image = ax.pcolormesh(time, height, rate, cmap="RdBu_r", vmin=-largest, vmax=largest, shading="auto")

@@ -116,6 +116,8 @@ def test_the_open_drag_acts_over_the_rollout_on_a_floor_layer_a_quarter_of_the_h
     held, _ = _fronts(scene, Effects(open_drag=(0.0, 0.0, 20.0, 20.0)))
     driven, _ = _fronts(scene, Effects(open_drag=(-8.0, -8.0, -8.0, -8.0)))
     assert held[-1] < base[-1] - 0.002 and driven[-1] > base[-1] + 0.001
+    with pytest.raises(DamBreakError, match=r"Effects\.open_drag"):
+        Effects(physics=OptionalPhysics(open_drag=(1.0, 0.0, 0.0, 0.0)))
 
 
 def test_wall_slip_lets_the_material_slide_on_the_floor_and_walls_the_less_the_larger_its_coefficient(channel):

@@ -15,12 +15,13 @@ wp.init()
 HAS_CUDA = wp.get_cuda_device_count() > 0
 needs_cuda = pytest.mark.skipif(not HAS_CUDA, reason="Warp sees no CUDA GPU")
 MATERIAL = HerschelBulkley(tau_y=200.0, K=20.0, n=0.6, mu=2.0e4, lam=2.0e4)
+BASE = OptionalPhysics()
 # every optional term that a rollout can differentiate, on at once
 OPTIONS = OptionalPhysics(air_drag=5.0, open_drag=(2.0, -1.0, 1.0, 0.5), open_layer=0.05, open_span=0.03)
 
 
 def _rollout(device: str, checkpoint_mb: float = 1024.0, dtype=torch.float64,
-             physics: OptionalPhysics = OptionalPhysics()):
+             physics: OptionalPhysics = BASE):
     """A 30-step slump of a small cylinder and the gradient of a loss on its last frame w.r.t. the material."""
     sim = Simulator(MATERIAL, resolution=16, colliders=[Floor(height=3.3 / 16)], dtype=dtype, device=device,
                     checkpoint_mb=checkpoint_mb, physics=physics)
@@ -55,7 +56,7 @@ def test_checkpointed_chunks_match_one_chunk():
 def test_gpu_matches_cpu():
     """Forward states and gradients on the GPU equal the CPU's within float tolerance (atomic sums run in another
     order there), for the base model and with the optional terms on."""
-    for checkpoint_mb, physics in ((1024.0, OptionalPhysics()), (0.5, OptionalPhysics()), (1024.0, OPTIONS)):
+    for checkpoint_mb, physics in ((1024.0, BASE), (0.5, BASE), (1024.0, OPTIONS)):
         x_cpu, grad_cpu = _rollout("cpu", checkpoint_mb, physics=physics)
         x_gpu, grad_gpu = _rollout("cuda", checkpoint_mb, physics=physics)
         assert x_gpu.device.type == "cpu"

@@ -11,6 +11,7 @@ import warp as wp
 from rheo.geometry.sampling import box, lattice_fill
 from rheo.physics import Box, Floor, HerschelBulkley, NeoHookean, NewtonianFluid, OptionalPhysics, Simulator
 from rheo.physics import kernels as kn
+from rheo.physics.optional import open_drag_rate
 from rheo.physics.simulator import SimulationError
 
 
@@ -59,6 +60,15 @@ def test_open_drag_slows_or_drives_a_glide_as_its_rate_turns_from_early_to_late(
     assert torch.allclose(v, 0.5 * torch.exp(-exponent), rtol=2e-3), (v, 0.5 * torch.exp(-exponent))
     unchanged, _ = _glide((drag[2], drag[3], drag[0], drag[1]), layer, span)  # the same rates on the other part
     assert torch.allclose(unchanged, torch.full_like(unchanged, 0.5), rtol=1e-4)
+
+
+def test_open_drag_rate_blends_the_floor_and_the_bulk_early_and_late():
+    rates, layer, span = (4.0, 2.0, 1.0, -1.0), 0.1, 2.0
+    assert open_drag_rate(rates, 0.0, 0.0, layer, span) == 4.0  # on the floor at the release: floor early
+    assert open_drag_rate(rates, -0.05, 3.0, layer, span) == 2.0  # below the floor, after the span: floor late
+    assert open_drag_rate(rates, 100.0, 3.0, layer, span) == pytest.approx(-1.0)  # far above, late: bulk late
+    # half the floor's weight (height layer ln 2), half way through the span: the mean of the four
+    assert open_drag_rate(rates, layer * math.log(2.0), 1.0, layer, span) == pytest.approx(1.5)
 
 
 def _hanging_drop(adhesion: float, contact: str = "slip") -> float:
