@@ -1,6 +1,6 @@
 """virheometry_summary: every material's recovered law in one table (values, intervals, IoU, shear-rate band, error
-against its rheometer's curves where there are some, runtime) and one plot of all flow curves, with a link to each
-material's page."""
+against its rheometer's curves where there are some, runtime), what its diagnosis found the Bingham model leaves
+out, and one plot of all flow curves, with a link to each material's page."""
 
 from pathlib import Path
 
@@ -18,8 +18,22 @@ smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = start_stage(smk)
 KEYS = tuple(RESULT_KEYS.values())
 output = Path(smk.output[0])
+
+
+def diagnosis_cells(diagnosis: dict) -> list[str]:
+    """The verdict; the held-out losses (between fitted frames; the last frames) of the base fit and the refit; the
+    refit's error against the rheometer's curves; the diagnosis' runtime."""
+    losses = diagnosis["loss_before_after_px"]
+    held = "; ".join("-" if before is None else f"{before:.3g}" if after == before else f"{before:.3g} / {after:.3g}"
+                     for before, after in (losses["held_out"], losses["forecast"]))
+    by_curve = diagnosis.get("flow_curve_rms_log10", {}).get("by_curve", {})
+    refit = ", ".join(f"{e['refit']:.3f}" for e in by_curve.values() if "refit" in e) or "-"
+    return [diagnosis["verdict"], held, refit, f"{diagnosis['runtime_s'] / 60:.0f}"]
+
+
 rows, laws, links = [], {}, []
-for material, path, report in zip(smk.params.materials, smk.input.params, smk.input.reports, strict=True):
+for material, path, report, diagnosis in zip(smk.params.materials, smk.input.params, smk.input.reports,
+                                             smk.input.diagnoses, strict=True):
     fit = read_json(path)
     cells = [material]
     for key in KEYS:
@@ -34,16 +48,22 @@ for material, path, report in zip(smk.params.materials, smk.input.params, smk.in
         log.info("%s against %s: RMS log10 error %.3f", material, name, error["fit"])
     cells += ["none" if band is None else f"{band[0]:.2g}-{band[1]:.2g}",
               ", ".join(f"{e['fit']:.3f}" for e in errors.values()) or "-",
-              "yes" if fit["within_tolerance"]["ridge"] else "no", f"{fit['runtime_s'] / 60:.1f}"]
+              "yes" if fit["within_tolerance"]["ridge"] else "no", f"{fit['runtime_s'] / 60:.1f}",
+              *diagnosis_cells(read_json(diagnosis))]
     rows.append(cells)
     laws[material] = (law, None if band is None else tuple(band))
     links.append(link_tag(str(Path(report).relative_to(output.parent)), material))
 body = (table_tag(["material", "tau_y (Pa) [tolerance]", "K (Pa s^n) [tolerance]", "n [tolerance]",
                    "mean IoU per setup", "shear rates reached (1/s)",
-                   "RMS log10(stress / rheometer's) over them, per curve", "ridge", "runtime (min)"], rows)
+                   "RMS log10(stress / rheometer's) over them, per curve", "ridge", "runtime (min)",
+                   "diagnosis: what the Bingham model leaves out",
+                   "held-out loss (px) between fitted frames; last frames, base fit / refit",
+                   "the refit's RMS log10 against the rheometer, per curve", "diagnosis (min)"],
+                  rows)
         + "<p>* not determined by the recordings (tolerance interval wider than a factor 4, for n 1.5, or open: < or "
           ">, the materials within the tolerance go on past the fit's reach). Ridge: the evaluated "
           "materials within the tolerance spread over a factor 4 or more in some parameter.</p>"
         + figure_tag(summary_figure(laws), "recovered flow curves")
-        + f"<p>Each material's page (frames side by side, flow curve, camera checks): {', '.join(links)}.</p>")
+        + f"<p>Each material's page (frames side by side, flow curve, camera checks): {', '.join(links)}; its "
+          "diagnosis: results/virheometry/&lt;material&gt;/diagnosis/report.html.</p>")
 write_text_atomic(output, page("Real dam breaks: twelve materials", body))

@@ -60,9 +60,10 @@ def test_the_summary_plans_a_joint_fit_and_a_page_per_material_and_an_import_per
         parts = line.split()
         if len(parts) == 2 and parts[0].startswith("virheometry_") and parts[1].isdigit():
             counts[parts[0]] = int(parts[1])
-    # Lotion's page also fits each of its setups alone (virheometry.single_setup_fits)
-    assert counts == {"virheometry_fit": 14, "virheometry_import": 24, "virheometry_report": 12,
-                      "virheometry_summary": 1}
+    # Lotion's page also fits each of its setups alone (virheometry.single_setup_fits); each material's diagnosis
+    # starts from a Bingham fit on the frames it does not hold out
+    assert counts == {"virheometry_fit": 26, "virheometry_import": 24, "virheometry_report": 12,
+                      "virheometry_diagnose": 12, "virheometry_summary": 1}
 
 
 def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
@@ -79,6 +80,12 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
             "shear_rate_band_per_s": [0.1 * (i + 1), 20.0], "within_tolerance": {"ridge": i == 5},
             "runtime_s": 60.0 * (i + 1)}))
         (fit_dir.parent / "report.html").write_text(f"<html>{material}</html>")
+        (fit_dir.parent / "diagnosis").mkdir()
+        refit = {"refit": 0.03} if i == 0 else {}
+        (fit_dir.parent / "diagnosis/diagnosis.json").write_text(json.dumps({
+            "verdict": f"verdict {i}", "runtime_s": 600.0 * (i + 1),
+            "loss_before_after_px": {"held_out": [0.02, 0.01 if i == 0 else 0.02], "forecast": [0.04, 0.04]},
+            "flow_curve_rms_log10": {"by_curve": {"a": {"base fit": 0.1, **refit}, "b": {"base fit": 0.2, **refit}}}}))
     run = workflow.run("results/virheometry/summary.html", "--allowed-rules", "virheometry_summary")
     assert run.returncode == 0, run.stderr[-3000:]
     page = (workflow.root / "results/virheometry/summary.html").read_text()
@@ -101,6 +108,10 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
         assert cells[6] == (", ".join(f"{log_rms_error(*law, c.within((0.1 * (i + 1), 20.0))):.3f}" for c in curves)
                             or "-")
         assert cells[7] == ("yes" if i == 5 else "no") and cells[8] == f"{i + 1:.1f}"  # ridge, runtime (min)
+        # the diagnosis: verdict, held-out losses (before / after where the refit changed them), the refit's error
+        # against the rheometer, runtime (min)
+        assert cells[9:] == [f"verdict {i}", "0.02 / 0.01; 0.04" if i == 0 else "0.02; 0.04",
+                             "0.030, 0.030" if i == 0 else "-", f"{10 * (i + 1)}"]
         assert f"<a href='{material}/report.html'>{material}</a>" in page
     assert page.count("<img") == 1  # the flow curves of all materials in one plot
 

@@ -124,6 +124,7 @@ rule virheometry_summary:
     input:
         params=expand("results/virheometry/{material}/fit/params.json", material=virheometry_materials()),
         reports=expand("results/virheometry/{material}/report.html", material=virheometry_materials()),
+        diagnoses=expand("results/virheometry/{material}/diagnosis/diagnosis.json", material=virheometry_materials()),
         rheometer=[curve for m in virheometry_materials() for curve in config["virheometry"]["rheometer"].get(m, [])],
     output:
         report("results/virheometry/summary.html", caption="../report/summary.rst", category="Real dam breaks"),
