@@ -56,19 +56,19 @@ def proxy_volume(proxy: dict) -> float:
 
 
 def simulation_steps(exp: dict) -> int:
-    """Steps over the recorded duration: ``substeps`` per frame interval, else the simulator's CFL step for the
-    material's waves and a fall across the domain."""
+    """Steps over the recorded duration: ``substeps`` per frame interval, else the simulator's step for the
+    material and a fall across the domain."""
     sim = exp["simulation"]
     intervals = sim["frames"] - 1
     if sim.get("substeps"):
         return intervals * sim["substeps"]
     from rheo.experiments.scene import material  # the simulator's modules: imported only where needed
-    from rheo.physics.simulator import DEFAULT_CFL
+    from rheo.physics.simulator import time_step
 
-    dx = sim["domain_size"] / sim["resolution"]
     fall_speed = math.sqrt(2.0 * 9.8 * sim["domain_size"])
-    dt = DEFAULT_CFL * dx / (material(exp["material"]).wave_speed() + fall_speed)
-    return intervals * max(1, math.ceil(sim["duration"] / intervals / dt))
+    _, steps = time_step(sim["duration"] / intervals, sim["domain_size"] / sim["resolution"],
+                         material(exp["material"]), fall_speed)
+    return intervals * steps
 
 
 def _fit_simulations(exp: dict) -> float:

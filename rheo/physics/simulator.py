@@ -40,6 +40,18 @@ DEVICES = ("auto", "cpu", "cuda")
 _default_device = "cpu"
 
 
+def time_step(frame_dt: float, dx: float, material: Material, max_speed: float, cfl: float = DEFAULT_CFL,
+              surface_tension: float = 0.0) -> tuple[float, int]:
+    """The largest step that divides the frame interval ``frame_dt`` on cells of ``dx`` and obeys the CFL limit
+    (waves plus a flow of ``max_speed``), the viscous one and, with ``surface_tension``, the capillary one; and the
+    steps per interval."""
+    dt_max = min(cfl * dx / (material.wave_speed() + max_speed), material.diffusive_time_step(dx))
+    if surface_tension > 0.0:  # the period of the shortest capillary wave the grid holds, over 2 pi
+        dt_max = min(dt_max, math.sqrt(material.density * dx**3 / (2 * math.pi * surface_tension)))
+    substeps = max(1, math.ceil(frame_dt / dt_max - 1e-9))
+    return frame_dt / substeps, substeps
+
+
 def _checked_device(name: str) -> str:
     if name not in DEVICES:
         raise SimulationError(f"simulation device {name!r} must be one of {', '.join(DEVICES)}")
@@ -214,13 +226,8 @@ class Simulator:
 
     def time_step(self, frame_dt: float, max_speed: float, material: Material | None = None) -> tuple[float, int]:
         """The largest step that divides the frame interval and obeys the CFL and viscous limits."""
-        material = material or self.material
-        dt_max = min(self.cfl * self.dx / (material.wave_speed() + max_speed), material.diffusive_time_step(self.dx))
-        tension = self.physics.surface_tension
-        if tension > 0.0:  # the period of the shortest capillary wave the grid holds, over 2 pi
-            dt_max = min(dt_max, math.sqrt(material.density * self.dx**3 / (2 * math.pi * tension)))
-        substeps = max(1, math.ceil(frame_dt / dt_max - 1e-9))
-        return frame_dt / substeps, substeps
+        return time_step(frame_dt, self.dx, material or self.material, max_speed, self.cfl,
+                         self.physics.surface_tension)
 
     def bytes_per_step(self, n_particles: int) -> int:
         """Memory the backward pass keeps per step: particle state, grid, their gradients, the eigen-decomposition."""
