@@ -31,7 +31,7 @@ def diagnosis_cells(diagnosis: dict) -> list[str]:
     return [diagnosis["verdict"], held, refit, f"{diagnosis['runtime_s'] / 60:.0f}"]
 
 
-rows, laws, links = [], {}, []
+rows, laws, links, diagnosis_links = [], {}, [], []
 for material, path, report, diagnosis in zip(smk.params.materials, smk.input.params, smk.input.reports,
                                              smk.input.diagnoses, strict=True):
     fit = read_json(path)
@@ -53,6 +53,7 @@ for material, path, report, diagnosis in zip(smk.params.materials, smk.input.par
     rows.append(cells)
     laws[material] = (law, None if band is None else tuple(band))
     links.append(link_tag(str(Path(report).relative_to(output.parent)), material))
+    diagnosis_links.append(link_tag(str((Path(diagnosis).parent / "report.html").relative_to(output.parent)), material))
 body = (table_tag(["material", "tau_y (Pa) [tolerance]", "K (Pa s^n) [tolerance]", "n [tolerance]",
                    "mean IoU per setup", "shear rates reached (1/s)",
                    "RMS log10(stress / rheometer's) over them, per curve", "ridge", "runtime (min)",
@@ -65,5 +66,5 @@ body = (table_tag(["material", "tau_y (Pa) [tolerance]", "K (Pa s^n) [tolerance]
           "materials within the tolerance spread over a factor 4 or more in some parameter.</p>"
         + figure_tag(summary_figure(laws), "recovered flow curves")
         + f"<p>Each material's page (frames side by side, flow curve, camera checks): {', '.join(links)}; its "
-          "diagnosis: results/virheometry/&lt;material&gt;/diagnosis/report.html.</p>")
+          f"diagnosis: {', '.join(diagnosis_links)}.</p>")
 write_text_atomic(output, page("Real dam breaks: twelve materials", body))

@@ -113,6 +113,7 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
         assert cells[9:] == [f"verdict {i}", "0.02 / 0.01; 0.04" if i == 0 else "0.02; 0.04",
                              "0.030, 0.030" if i == 0 else "-", f"{10 * (i + 1)}"]
         assert f"<a href='{material}/report.html'>{material}</a>" in page
+        assert f"<a href='{material}/diagnosis/report.html'>{material}</a>" in page
     assert page.count("<img") == 1  # the flow curves of all materials in one plot
 
 
