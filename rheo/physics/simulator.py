@@ -225,7 +225,7 @@ class Simulator:
         return self.collider_arrays.parameters.to(self.dtype)
 
     def time_step(self, frame_dt: float, max_speed: float, material: Material | None = None) -> tuple[float, int]:
-        """The largest step that divides the frame interval and obeys the CFL and viscous limits."""
+        """``time_step`` on this simulator's cells, with its CFL number and surface tension."""
         return time_step(frame_dt, self.dx, material or self.material, max_speed, self.cfl,
                          self.physics.surface_tension)
 
