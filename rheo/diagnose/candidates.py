@@ -149,7 +149,7 @@ def matched_law(law: np.ndarray, n: float, next_n: float, band: tuple[float, flo
 
 
 # The open candidate: a generic discrepancy fitted where no named effect explains the mismatch, the four rates (1/s)
-# of Effects.open_drag, searched as they are within a box (negative: the flow driven rather than held back)
+# of OptionalPhysics.open_drag, searched as they are within a box (negative: the flow driven rather than held back)
 OPEN_DRAG = tuple(f"drag_{term.replace(' ', '_')}" for term in OPEN_DRAG_TERMS)
 OPEN_BOX = (-5.0, 20.0)
 OPEN_STEP = 1.0  # initial simplex step of each rate, 1/s
@@ -182,5 +182,6 @@ class Law:
         if self.candidate is not None:
             law, effects = self.candidate.apply(self.candidate.value(float(x[-1])), law, effects)
         if self.open:
-            effects = dataclasses.replace(effects, open_drag=open_rates(x))
+            physics = dataclasses.replace(effects.physics, open_drag=open_rates(x))
+            effects = dataclasses.replace(effects, physics=physics)
         return law, effects

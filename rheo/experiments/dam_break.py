@@ -44,10 +44,9 @@ class Effects:
     the floor). ``gate_lift_time`` (s): a gate at the cuboid's front slides up at a constant speed and clears the
     material's height after this time (0: released at once). ``gravity_tilt`` (rad): gravity leans towards +x,
     down the channel (a table or camera not level). ``density_factor``: the material's density times this (a wrong
-    density). ``physics``: the engine's optional physics (air drag, thixotropy, wall adhesion, surface tension).
-    ``open_drag`` (1/s, signed): a generic discrepancy, ``OptionalPhysics.open_drag``'s four rates (floor early,
-    floor late, bulk early, bulk late) with the floor's layer a quarter of the material's height and the span from
-    the release to the last frame simulated."""
+    density). ``physics``: the engine's optional physics (air drag, thixotropy, wall adhesion, surface tension,
+    the open drag); the scene sets the open drag's floor layer to a quarter of the material's height and its span
+    to the rollout's duration."""
 
     floor_friction: float | None = None
     wall_slip: float | None = None
@@ -55,7 +54,6 @@ class Effects:
     gravity_tilt: float = 0.0
     density_factor: float = 1.0
     physics: OptionalPhysics = field(default_factory=OptionalPhysics)
-    open_drag: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         if self.floor_friction is not None and not (math.isfinite(self.floor_friction) and self.floor_friction >= 0):
@@ -68,9 +66,6 @@ class Effects:
             raise DamBreakError(f"gravity tilt {self.gravity_tilt!r} rad must lie within (-pi/2, pi/2)")
         if not (math.isfinite(self.density_factor) and self.density_factor > 0):
             raise DamBreakError(f"density factor {self.density_factor!r} must be finite and > 0")
-        if any(self.physics.open_drag):
-            raise DamBreakError("a dam break's open drag is Effects.open_drag (the scene sets its layer and span), "
-                                "not Effects.physics.open_drag")
 
 
 def floor_footprint(camera: Camera, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
@@ -166,9 +161,8 @@ class DamBreakScene:
         span)."""
         effects = effects or Effects()
         physics = effects.physics
-        if any(effects.open_drag):
-            physics = dataclasses.replace(physics, open_drag=effects.open_drag,
-                                          open_layer=OPEN_LAYER * self.setup.height, open_span=duration)
+        if any(physics.open_drag):
+            physics = dataclasses.replace(physics, open_layer=OPEN_LAYER * self.setup.height, open_span=duration)
         tilt = effects.gravity_tilt
         gravity = (0.0, -GRAVITY, 0.0) if tilt == 0 else (GRAVITY * math.sin(tilt), -GRAVITY * math.cos(tilt), 0.0)
         if effects.density_factor != 1:

@@ -17,8 +17,8 @@ def test_the_open_drag_is_the_search_vectors_last_four_entries():
     assert law.names == ("tau_y", "K", *OPEN_DRAG)
     values, effects = law.unpack(np.r_[np.log([20.0, 2.0]), 0.0, 4.0, -1.0, 0.5])
     assert values == pytest.approx({"tau_y": 20.0, "K": 2.0, "n": 1.0})
-    assert effects.open_drag == (0.0, 4.0, -1.0, 0.5)
-    assert Law(n=1.0).unpack(np.log([20.0, 2.0]))[1].open_drag == (0.0, 0.0, 0.0, 0.0)
+    assert effects.physics.open_drag == (0.0, 4.0, -1.0, 0.5)
+    assert Law(n=1.0).unpack(np.log([20.0, 2.0]))[1].physics.open_drag == (0.0, 0.0, 0.0, 0.0)
 
 
 def test_the_words_name_the_terms_of_at_least_half_the_strongest_rate():
