@@ -1,0 +1,122 @@
+"""The concealed-effect benchmark's scores, from its cases' records (``summary.json``'s ``by_case``), and the targets
+a blind suite is held to. As a command it scores a stored summary.json, one written by another version of the code
+(a suite run from a frozen commit) included:
+
+    python -m rheo.diagnose.scores results/concealed/summary.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from rheo.config import load_schema
+from rheo.io import write_json_atomic
+
+ROOT = Path(__file__).resolve().parents[2]
+HELD_OUT_GAIN = -30.0  # %: a held-out loss that falls at least this far counts as predicted better
+TOP1_SHOWN = 0.8  # the share of the cases whose recording shows the effect that must be named correctly
+
+
+def modelled(record: dict, candidates: Sequence[str]) -> list[str]:
+    """The case's concealed effects that one of ``candidates`` models, the dominant one first."""
+    return [e["effect"] for e in record["concealed"] if e["effect"] in candidates]
+
+
+def truth_label(record: dict, candidates: Sequence[str]) -> str:
+    """The case's row of the confusion table: its dominant modelled effect, "outside" where it conceals only effects
+    that no candidate models, "none" where it conceals nothing."""
+    names = modelled(record, candidates)
+    return names[0] if names else "outside" if record["concealed"] else "none"
+
+
+def down(change_pct: float | None) -> bool:
+    return change_pct is not None and change_pct <= HELD_OUT_GAIN
+
+
+def suite_scores(records: list[dict], candidates: Sequence[str]) -> dict:
+    """Counts over the cases: with a modelled effect, null, outside; named correctly (top-1, also among the cases
+    whose recording shows the effect: the base fit above the truth in the fit's simulation); wrong names (on a case
+    with an effect, and false alarms on null and outside cases); of the cases where an effect is named, those whose
+    held-out losses fell by at least 30 %; the core parameters' mean bias (%) before and after the refit and the
+    cases it fell on; the open drag's fits; the diagnoses' runtime."""
+    effect = [r for r in records if modelled(r, candidates)]
+    others = [r for r in records if not modelled(r, candidates)]
+    named = [r for r in records if r["named"] != "none"]
+    bias = np.array([r["core_bias_pct"] for r in effect]).reshape(-1, 2)
+    return {
+        "cases": len(records), "with_effect": len(effect), "null": sum(not r["concealed"] for r in others),
+        "outside": sum(bool(r["concealed"]) for r in others),
+        "top1": sum(r["named"] in modelled(r, candidates) for r in effect),
+        "shown": sum(bool(r["shown"]) for r in effect),
+        "shown_named": sum(bool(r["shown"]) and r["named"] in modelled(r, candidates) for r in effect),
+        "wrong_names": sum(r["named"] not in ("none", *modelled(r, candidates)) for r in effect),
+        "false_alarms": sum(r["named"] != "none" for r in others),
+        "named": len(named), "held_out_down_30pct": sum(down(r["held_out_change_pct"]) for r in named),
+        "forecast_down_30pct": sum(down(r["forecast_change_pct"]) for r in named),
+        "core_bias_mean_pct": bias.mean(axis=0).tolist() if len(bias) else None,
+        "core_bias_reduced": int((bias[:, 1] < bias[:, 0]).sum()),
+        "open_drag_fitted": sum(r["open_drag"] is not None for r in records),
+        "open_drag_explains": sum(bool(r["open_drag"] and r["open_drag"]["explains"]) for r in records),
+        "runtime_min": sum(r["runtime_min"] for r in records),
+    }
+
+
+def targets(scores: dict) -> list[tuple[str, str, bool | None]]:
+    """Each target a blind suite is held to: what it asks, the measured figure, and whether it holds (None where no
+    case bears on it)."""
+
+    def share(hits: int, of: int, floor: float) -> tuple[str, bool | None]:
+        return f"{hits} of {of}", (hits >= floor * of) if of else None
+
+    bias = scores["core_bias_mean_pct"]
+    return [
+        (f"top-1 >= {TOP1_SHOWN:.0%} on the cases whose recording shows the effect",
+         *share(scores["shown_named"], scores["shown"], TOP1_SHOWN)),
+        ("no name on a null or out-of-library case",
+         f"{scores['false_alarms']} of {scores['null'] + scores['outside']}", scores["false_alarms"] == 0),
+        ("held-out loss (between fitted frames) down >= 30 % where an effect is named",
+         *share(scores["held_out_down_30pct"], scores["named"], 1.0)),
+        ("the same on the last frames (a prediction)", *share(scores["forecast_down_30pct"], scores["named"], 1.0)),
+        ("core parameters' mean bias reduced by the refit",
+         "-" if bias is None else f"{bias[0]:.1f} % -> {bias[1]:.1f} %", None if bias is None else bias[1] < bias[0]),
+    ]
+
+
+def target_records(checked: list[tuple[str, str, bool | None]]) -> list[dict]:
+    return [{"target": asked, "measured": figure, "met": holds} for asked, figure, holds in checked]
+
+
+def default_candidates() -> list[str]:
+    schema = load_schema(ROOT / "workflow/schemas/config.schema.yaml")
+    return schema["properties"]["diagnose"]["properties"]["candidates"]["default"]
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("summary", type=Path, help="a concealed benchmark's summary.json")
+    parser.add_argument("--candidates", nargs="+", help="the diagnosis' candidates (default: the configuration's)")
+    parser.add_argument("--out", type=Path, help="also write the scores and targets to this JSON file")
+    args = parser.parse_args(argv)
+    try:
+        stored = json.loads(args.summary.read_text())
+        records = stored["by_case"]
+    except (OSError, ValueError, KeyError) as error:
+        parser.error(f"{args.summary}: not a concealed benchmark's summary.json ({error})")
+    scores = suite_scores(records, args.candidates or stored.get("candidates") or default_candidates())
+    checked = targets(scores)
+    print(f"{args.summary}: suite {stored.get('suite')}, code {stored.get('code_version')}")
+    for asked, figure, holds in checked:
+        print(f"  {'-' if holds is None else 'met' if holds else 'NOT met':8} {asked}: {figure}")
+    if args.out:
+        write_json_atomic(args.out, {"summary": str(args.summary), "suite": stored.get("suite"),
+                                     "code_version": stored.get("code_version"), "scores": scores,
+                                     "targets": target_records(checked)})
+
+
+if __name__ == "__main__":
+    main()
