@@ -217,7 +217,7 @@ def test_a_broken_virheometry_folder_is_named_at_import(workflow, tmp_path, brea
 def test_a_second_run_on_the_same_folder_is_refused_by_the_lock(workflow):
     # the first run goes on to the fit (tens of seconds), so it still holds its lock when the second one starts
     first = subprocess.Popen(workflow.command("results/tiny/fit/params.json"), cwd=workflow.root, env=workflow.env,
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     try:
         locks = workflow.root / ".snakemake/locks"
         deadline = time.monotonic() + 60
@@ -225,9 +225,13 @@ def test_a_second_run_on_the_same_folder_is_refused_by_the_lock(workflow):
             time.sleep(0.2)
         second = workflow.run("results/tiny/recordings")
         assert second.returncode != 0 and "cannot be locked" in _output(second)
-    finally:
+    finally:  # Snakemake lets its running jobs finish after an interrupt: on a busy machine, stop them all
         first.send_signal(signal.SIGINT)
-        first.wait(timeout=60)
+        try:
+            first.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            os.killpg(first.pid, signal.SIGKILL)
+            first.wait()
 
 
 def test_a_synthesize_killed_half_way_leaves_no_hidden_folder_after_the_next_run(workflow):
