@@ -13,6 +13,9 @@ import yaml
 from jsonschema import Draft202012Validator, validators
 from jsonschema.exceptions import ValidationError, best_match
 
+ROOT = Path(__file__).resolve().parents[1]
+WORKFLOW_CONFIG = ROOT / "config/config.yaml"
+
 
 class ConfigError(ValueError):
     """A configuration file or value that rheo cannot use; the message names the file and the key."""
@@ -185,6 +188,11 @@ def load_schema(path: str | Path) -> dict:
 def load_checked(path: str | Path, schema: dict) -> dict:
     """A YAML file read strictly and validated against ``schema``, its defaults filled in."""
     return validated(load_yaml(path), schema, str(path))
+
+
+def workflow_settings(path: str | Path = WORKFLOW_CONFIG) -> dict:
+    """The workflow's configuration (config/config.yaml unless told) with the schema's defaults filled in."""
+    return load_checked(path, load_schema(ROOT / "workflow/schemas/config.schema.yaml"))
 
 
 def load_named(path: Path, schema: dict) -> dict:

@@ -14,10 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from rheo.config import load_schema
+from rheo.config import workflow_settings
 from rheo.io import write_json_atomic
 
-ROOT = Path(__file__).resolve().parents[2]
 HELD_OUT_GAIN = -30.0  # %: a held-out loss that falls at least this far counts as predicted better
 TOP1_SHOWN = 0.8  # the share of the cases whose recording shows the effect that must be named correctly
 
@@ -91,11 +90,6 @@ def target_records(checked: list[tuple[str, str, bool | None]]) -> list[dict]:
     return [{"target": asked, "measured": figure, "met": holds} for asked, figure, holds in checked]
 
 
-def default_candidates() -> list[str]:
-    schema = load_schema(ROOT / "workflow/schemas/config.schema.yaml")
-    return schema["properties"]["diagnose"]["properties"]["candidates"]["default"]
-
-
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("summary", type=Path, help="a concealed benchmark's summary.json")
@@ -107,7 +101,8 @@ def main(argv: list[str] | None = None) -> None:
         records = stored["by_case"]
     except (OSError, ValueError, KeyError) as error:
         parser.error(f"{args.summary}: not a concealed benchmark's summary.json ({error})")
-    scores = suite_scores(records, args.candidates or stored.get("candidates") or default_candidates())
+    candidates = args.candidates or stored.get("candidates") or workflow_settings()["diagnose"]["candidates"]
+    scores = suite_scores(records, candidates)
     checked = targets(scores)
     print(f"{args.summary}: suite {stored.get('suite')}, code {stored.get('code_version')}")
     for asked, figure, holds in checked:

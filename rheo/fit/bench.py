@@ -21,20 +21,13 @@ from pathlib import Path
 
 import numpy as np
 
-from rheo.config import load_checked, load_schema
+from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.diagnose.candidates import Law
 from rheo.experiments.virheometry import setup_folders
 from rheo.fit.dam_break import RESULT_KEYS, comparisons, setup_files
 from rheo.fit.parallel import Evaluator
 from rheo.io import write_json_atomic
 from rheo.physics.simulator import DEVICES, device_name, set_default_device
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def settings(config_file: Path) -> dict:
-    """The workflow's configuration with the schema's defaults filled in."""
-    return load_checked(config_file, load_schema(ROOT / "workflow/schemas/config.schema.yaml"))
 
 
 def measure_material(material: str, results: Path, benchmarks: Path, simulation: dict, workers: int) -> dict:
@@ -64,7 +57,7 @@ def measure_material(material: str, results: Path, benchmarks: Path, simulation:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
-    parser.add_argument("--config", type=Path, default=ROOT / "config/config.yaml")
+    parser.add_argument("--config", type=Path, default=WORKFLOW_CONFIG)
     parser.add_argument("--results", type=Path, default=Path("results/virheometry"))
     parser.add_argument("--benchmarks", type=Path, default=Path("benchmarks/virheometry"))
     parser.add_argument("--materials", nargs="*", help="default: every fitted material")
@@ -72,7 +65,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--device", choices=DEVICES, default="cpu", help="cuda: one simulation at a time on the GPU")
     args = parser.parse_args(argv)
     set_default_device(args.device)
-    simulation = settings(args.config)["virheometry"]["simulation"]
+    simulation = workflow_settings(args.config)["virheometry"]["simulation"]
     materials = args.materials or sorted(p.parent.parent.name for p in args.results.glob("*/fit/params.json"))
     if not materials:
         parser.error(f"{args.results}: no fitted material (<material>/fit/params.json)")

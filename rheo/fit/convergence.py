@@ -36,6 +36,7 @@ import numpy as np
 from scipy.optimize import brentq
 from tqdm.auto import tqdm
 
+from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.dam_break import dam_break_scene
 from rheo.experiments.rheometer import fit_herschel_bulkley, pooled, read_flow_curve
 from rheo.experiments.virheometry import Setup, read_setup, setup_folders
@@ -342,21 +343,19 @@ def law(text: str) -> Law:
 
 
 def main(argv: list[str] | None = None) -> None:
-    from rheo.fit.bench import settings
-
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--material", required=True)
     parser.add_argument("--grids", type=grid, nargs="+", required=True, help="cells over the material's height")
     parser.add_argument("--cfl", type=float, nargs="+", help="time steps, as fractions of a cell's crossing time")
     parser.add_argument("--law", type=law, action="append", default=[], help="tau_y,K,n (repeatable)")
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
-    parser.add_argument("--config", type=Path, default=ROOT / "config/config.yaml")
+    parser.add_argument("--config", type=Path, default=WORKFLOW_CONFIG)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--device", choices=DEVICES, default="cpu", help="cuda: one simulation at a time on the GPU")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO)
     set_default_device(args.device)
-    config = settings(args.config)["virheometry"]
+    config = workflow_settings(args.config)["virheometry"]
     laws = {f"given {i + 1}": given for i, given in enumerate(args.law)}
     if args.material in config["rheometer"]:
         laws["rheometer"] = rheometer_law(config["rheometer"][args.material], config["convergence"]["rheometer_band"])

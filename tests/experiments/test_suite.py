@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import yaml
 
+from rheo.config import workflow_settings
 from rheo.experiments.concealed import OUTSIDE_EFFECTS, RELEASE_STEP, channel, concealed_truth, zoomed
 from rheo.experiments.suite import MAGNITUDES, draw_suite
-from rheo.fit.bench import settings
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -42,7 +42,7 @@ def test_drawn_cases_are_valid_and_say_nothing_of_their_effects():
 
 
 def test_the_largest_drawn_channels_stay_in_the_scene_cameras_view():
-    scene = settings(ROOT / "config/config.yaml")["concealed"]["scene"]
+    scene = workflow_settings()["concealed"]["scene"]
     for height, width in ((0.065, 0.055), (0.03, 0.055), (0.065, 0.035)):
         setup = channel(scene, {"height": height, "width": width}, 1, "view")
         assert setup.camera.pixels(setup.cuboid_corners())[1].all()
@@ -56,7 +56,7 @@ def test_the_lab_films_two_effects_at_once_and_a_miscalibrated_camera_no_candida
     assert truth.law == {"tau_y": 12.0, "K": 1.5, "n": 0.45}
     assert truth.effects.physics.thixotropy == 0.7 and (truth.camera_roll, truth.camera_zoom) == (-2.0, 0.03)
     # a focal length 3 % longer puts every point 3 % farther from the principal point
-    scene = settings(ROOT / "config/config.yaml")["concealed"]["scene"]
+    scene = workflow_settings()["concealed"]["scene"]
     camera = channel(scene, {"height": 0.04, "width": 0.04}, 1, "view").camera
     points = np.array([[0.0, 0.0, 0.0], [0.04, 0.04, 0.04], [0.1, 0.0, 0.02]])
     centre = camera.K[:2, 2]

@@ -2,6 +2,7 @@
 
 import os
 import shutil
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -24,6 +25,16 @@ class Workflow:
     def run(self, *args: str, timeout: float = 600) -> subprocess.CompletedProcess:
         return subprocess.run(self.command(*args), cwd=self.root, env=self.env, capture_output=True, text=True,
                               timeout=timeout)
+
+    def start(self, *args: str) -> subprocess.Popen:
+        """Snakemake in the background, in a process group of its own that ``kill`` ends with all its jobs."""
+        return subprocess.Popen(self.command(*args), cwd=self.root, env=self.env, start_new_session=True,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+    @staticmethod
+    def kill(job: subprocess.Popen) -> None:
+        os.killpg(job.pid, signal.SIGKILL)
+        job.wait()
 
 
 def scratch_workflow(folder: Path) -> Workflow:

@@ -2,10 +2,8 @@
 key (or a warning with both counts), before anything long runs; one bad experiment breaks only its own targets; a
 second run on the same folder is refused by the lock."""
 
-import os
 import re
 import shutil
-import signal
 import subprocess
 import time
 
@@ -216,8 +214,7 @@ def test_a_broken_virheometry_folder_is_named_at_import(workflow, tmp_path, brea
 
 def test_a_second_run_on_the_same_folder_is_refused_by_the_lock(workflow):
     # the first run goes on to the fit (tens of seconds), so it still holds its lock when the second one starts
-    first = subprocess.Popen(workflow.command("results/tiny/fit/params.json"), cwd=workflow.root, env=workflow.env,
-                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    first = workflow.start("results/tiny/fit/params.json")
     try:
         locks = workflow.root / ".snakemake/locks"
         deadline = time.monotonic() + 60
@@ -225,24 +222,17 @@ def test_a_second_run_on_the_same_folder_is_refused_by_the_lock(workflow):
             time.sleep(0.2)
         second = workflow.run("results/tiny/recordings")
         assert second.returncode != 0 and "cannot be locked" in _output(second)
-    finally:  # Snakemake lets its running jobs finish after an interrupt: on a busy machine, stop them all
-        first.send_signal(signal.SIGINT)
-        try:
-            first.wait(timeout=60)
-        except subprocess.TimeoutExpired:
-            os.killpg(first.pid, signal.SIGKILL)
-            first.wait()
+    finally:
+        workflow.kill(first)
 
 
 def test_a_synthesize_killed_half_way_leaves_no_hidden_folder_after_the_next_run(workflow):
     results = workflow.root / "results/tiny"
-    job = subprocess.Popen(workflow.command("results/tiny/recordings"), cwd=workflow.root, env=workflow.env,
-                           start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    job = workflow.start("results/tiny/recordings")
     deadline = time.monotonic() + 120
     while not list(results.glob(".recordings.*")) and time.monotonic() < deadline and job.poll() is None:
         time.sleep(0.1)
-    os.killpg(job.pid, signal.SIGKILL)
-    job.wait()
+    workflow.kill(job)
     assert list(results.glob(".recordings.*")) and not (results / "recordings").exists()
     workflow.run("--unlock")
     run = workflow.run("results/tiny/recordings", "--rerun-incomplete")

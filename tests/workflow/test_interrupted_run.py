@@ -4,9 +4,6 @@ never interrupted; on fewer cores (one worker instead of two) to a fit as good w
 stages are not run again."""
 
 import json
-import os
-import signal
-import subprocess
 import time
 
 import pytest
@@ -21,16 +18,14 @@ def _killed_half_way(folder):
     killed = scratch_workflow(folder)
     assert killed.run("results/tiny/fit/warmup.json").returncode == 0
     store = killed.root / "results/tiny/fit/params.evaluations.json"
-    job = subprocess.Popen(killed.command(TARGET), cwd=killed.root, env=killed.env, start_new_session=True,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    job = killed.start(TARGET)
     deadline = time.monotonic() + 300
     while time.monotonic() < deadline and job.poll() is None:
         if store.is_file() and len(json.loads(store.read_text() or "{}").get("records", [])) >= 10:
             break
         time.sleep(0.2)
     assert job.poll() is None, "the fit ended before it could be killed"
-    os.killpg(job.pid, signal.SIGKILL)
-    job.wait()
+    killed.kill(job)
     assert not (killed.root / TARGET).exists()
     assert "cannot be locked" in killed.run(TARGET).stderr  # a killed Snakemake leaves its lock
     assert killed.run(TARGET, "--unlock").returncode == 0
