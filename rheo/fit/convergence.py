@@ -36,7 +36,7 @@ import numpy as np
 from scipy.optimize import brentq
 from tqdm.auto import tqdm
 
-from rheo.config import WORKFLOW_CONFIG, workflow_settings
+from rheo.config import ROOT, WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.dam_break import dam_break_scene
 from rheo.experiments.rheometer import fit_herschel_bulkley, pooled, read_flow_curve
 from rheo.experiments.virheometry import Setup, read_setup, setup_folders
@@ -48,7 +48,6 @@ from rheo.physics.simulator import DEVICES, device_name, set_default_device
 logger = logging.getLogger(__name__)
 
 Law = tuple[float, float, float]  # tau_y (Pa), K (Pa s^n), n
-ROOT = Path(__file__).resolve().parents[2]
 # the sources a simulated dam break and its loss depend on: a change to any of them recomputes stored evaluations
 ENGINE_SOURCES = ("rheo/physics", "rheo/experiments/dam_break.py", "rheo/experiments/virheometry.py",
                   "rheo/fit/dam_break.py", "rheo/render/silhouette.py")
