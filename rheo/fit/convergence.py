@@ -13,6 +13,7 @@ changed engine recomputes.
 
     python -m rheo.fit.convergence --material Lotion --grids 8 12 16 --cfl 0.4 0.8 --out results/bench/Lotion.json
     python -m rheo.fit.convergence --material Lotion --grids 24 32 48 --device cuda --out results/bench/Lotion_cuda.json
+    python -m rheo.fit.convergence --material Lotion --grids 24 32 --lam 1e5 --device cuda --out results/bench/lam.json
 """
 
 from __future__ import annotations
@@ -341,6 +342,16 @@ def law(text: str) -> Law:
     return tau_y, K, n
 
 
+def modulus(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"modulus {text!r}: expected a positive number of Pa, e.g. 1e5")
+    return value
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--material", required=True)
@@ -348,6 +359,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--cfl", type=float, nargs="+", help="time steps, as fractions of a cell's crossing time")
     parser.add_argument("--law", type=law, action="append", default=[], help="tau_y,K,n (repeatable)")
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
+    parser.add_argument("--lam", type=modulus, help="Lame's lambda (Pa) in place of the config's")
     parser.add_argument("--config", type=Path, default=WORKFLOW_CONFIG)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--device", choices=DEVICES, default="cpu", help="cuda: one simulation at a time on the GPU")
@@ -360,7 +372,7 @@ def main(argv: list[str] | None = None) -> None:
         laws["rheometer"] = rheometer_law(config["rheometer"][args.material], config["convergence"]["rheometer_band"])
     if not laws:
         parser.error(f"{args.material}: no law to simulate (give --law; no rheometer curves)")
-    simulation = config["simulation"]
+    simulation = config["simulation"] if args.lam is None else {**config["simulation"], "lam": args.lam}
     setups = [read_setup(f, config["scale"]) for f in setup_folders(config["data"], args.material)]
     cases = study_cases(setups, laws, args.grids, args.cfl or [simulation["cfl"]],
                         (simulation["cells_per_height"], simulation["cells_across"]))

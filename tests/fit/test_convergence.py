@@ -17,6 +17,7 @@ from rheo.fit.convergence import (
     engine_fingerprint,
     grid,
     law,
+    modulus,
     observed_order,
     rheometer_law,
     richardson,
@@ -119,7 +120,7 @@ def test_the_engine_text_leaves_out_comments_and_docstrings_only():
     assert code_text(source.replace("x + y", "y + x")) != code_text(source)
 
 
-def test_grids_and_laws_are_parsed_or_refused_with_the_text():
+def test_grids_laws_and_moduli_are_parsed_or_refused_with_the_text():
     assert grid("12") == 12 and law("4.5,7,0.47") == (4.5, 7.0, 0.47)
     with pytest.raises(ArgumentTypeError, match="'12x14'"):
         grid("12x14")
@@ -127,3 +128,7 @@ def test_grids_and_laws_are_parsed_or_refused_with_the_text():
         grid("2")
     with pytest.raises(ArgumentTypeError, match=r"'4\.5,7'"):
         law("4.5,7")
+    assert modulus("1e5") == 1e5
+    for text in ("0", "-1e4", "nan", "stiff"):
+        with pytest.raises(ArgumentTypeError, match=f"'{text}'"):
+            modulus(text)
