@@ -347,7 +347,7 @@ def modulus(text: str) -> float:
         value = float(text)
     except ValueError:
         value = math.nan
-    if not value > 0:
+    if not 0 < value < math.inf:
         raise argparse.ArgumentTypeError(f"modulus {text!r}: expected a positive number of Pa, e.g. 1e5")
     return value
 

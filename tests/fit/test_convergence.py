@@ -129,6 +129,6 @@ def test_grids_laws_and_moduli_are_parsed_or_refused_with_the_text():
     with pytest.raises(ArgumentTypeError, match=r"'4\.5,7'"):
         law("4.5,7")
     assert modulus("1e5") == 1e5
-    for text in ("0", "-1e4", "nan", "stiff"):
+    for text in ("0", "-1e4", "nan", "inf", "stiff"):
         with pytest.raises(ArgumentTypeError, match=f"'{text}'"):
             modulus(text)
