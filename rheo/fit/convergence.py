@@ -54,6 +54,7 @@ ENGINE_SOURCES = ("rheo/physics", "rheo/experiments/dam_break.py", "rheo/experim
                   "rheo/fit/dam_break.py", "rheo/render/silhouette.py")
 QUANTITIES = {"loss_px": "loss (px)", "outflow": "share of the material past the gate",
               "front_m": "front past the gate (m)"}
+KEYED_SETTINGS = ("particles_per_cell", "mu", "lam", "max_offset", "transfer_cfl")  # in every stored record's key
 STUDY_ACROSS = 3  # cells across the channel on the study's grids: the height sets the cell
 
 
@@ -160,7 +161,11 @@ class EvaluationStore:
         self.records: dict[str, dict] = json.loads(self.path.read_text()) if self.path.is_file() else {}
 
     def key(self, case: Case, simulation: dict) -> str:
-        settings = {k: simulation.get(k) for k in ("particles_per_cell", "mu", "lam", "max_offset", "transfer_cfl")}
+        """The case and every simulation setting it does not set itself; beyond the first five, only those given
+        (wall slip, say), so that the keys of stored studies stay as they were."""
+        settings = {k: simulation.get(k) for k in KEYED_SETTINGS}
+        settings |= {k: v for k, v in simulation.items()
+                     if k not in (*KEYED_SETTINGS, "cells_per_height", "cells_across", "cfl") and v is not None}
         return json.dumps([self.fingerprint, case.folder, [float(v) for v in case.law], case.cells_per_height,
                            case.cells_across, case.cfl, settings])
 

@@ -113,6 +113,17 @@ def test_a_study_of_a_real_recording_refines_the_flow_and_resumes_from_its_store
         run(cases[:1], SIMULATION, 0.5, EvaluationStore(store.path, "another engine"), workers=1)
 
 
+def test_every_simulation_setting_given_is_part_of_a_stored_records_key(tmp_path):
+    store = EvaluationStore(tmp_path / "study.evaluations.json", "engine")
+    case = study_cases([read_setup(SHARED / "virheometry" / "ref_Lotion_2.5_5.1_1", scale=0.5)],
+                       {"given": (10.0, 1.0, 1.0)}, [5], [0.8], (6, 8))[0]
+    sticky = store.key(case, SIMULATION)
+    assert store.key(case, {**SIMULATION, "wall_slip": None}) == sticky
+    assert store.key(case, {**SIMULATION, "wall_slip": 1e4}) != sticky
+    assert store.key(case, {**SIMULATION, "lam": 1e5}) != sticky
+    assert store.key(case, {**SIMULATION, "cfl": 0.2}) == sticky  # the case's own step, not the config's
+
+
 def test_the_engine_text_leaves_out_comments_and_docstrings_only():
     source = 'def f(x):\n    """Doc, mu <= 1 \u00b5."""\n    y = "# kept"  # dropped \u2264\n\n    return x + y\n'
     assert code_text(source) == 'def f(x):\n    y = "# kept"\n    return x + y'
