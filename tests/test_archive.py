@@ -1,0 +1,101 @@
+"""A run's state carried to another machine: Snakemake, run on the restored copy, finds the finished jobs finished
+and runs only what was left; the archive keeps modification times to the nanosecond and stores only what changed."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from rheo.archive import MTIMES, ArchiveError, main, restore, save
+
+SNAKEFILE = """
+rule all:
+    input: "results/b.txt", "results/c.txt"
+
+rule a:
+    output: "results/z_from_a.txt"
+    shell: "echo a > {output} && echo ran a >> runs.log"
+
+rule b:
+    input: "results/z_from_a.txt"
+    output: "results/b.txt"
+    shell: "cat {input} > {output} && echo b >> {output} && echo ran b >> runs.log"
+
+rule c:
+    input: "results/b.txt"
+    output: "results/c.txt"
+    shell: "cat {input} > {output} && echo c >> {output} && echo ran c >> runs.log"
+"""
+
+
+def snakemake(workdir: Path, target: str = "all") -> None:
+    subprocess.run([sys.executable, "-m", "snakemake", "-j1", target], cwd=workdir, check=True, capture_output=True)
+
+
+def test_snakemake_resumes_on_a_restored_copy_without_running_the_finished_jobs_again(tmp_path):
+    first, second, archive = tmp_path / "first", tmp_path / "second", tmp_path / "archive"
+    for tree in (first, second):
+        tree.mkdir()
+        (tree / "Snakefile").write_text(SNAKEFILE)
+    snakemake(first, "results/b.txt")  # a and b finished; c not yet
+    assert (first / "runs.log").read_text().split() == ["ran", "a", "ran", "b"]
+
+    save(archive, ["results"], root=first)
+    restore(archive, root=second)
+    snakemake(second)
+
+    assert (second / "runs.log").read_text().split() == ["ran", "c"]
+    assert (second / "results/c.txt").read_text().split() == ["a", "b", "c"]
+
+
+def test_times_are_kept_and_only_changed_files_are_copied(tmp_path):
+    tree, archive, copy = tmp_path / "tree", tmp_path / "archive", tmp_path / "copy"
+    (tree / "results/x").mkdir(parents=True)
+    (tree / "results/x/evaluations.json").write_text('{"records": [1]}')
+    (tree / "results/x/params.json").write_text("{}")
+    (tree / "results/x/.params.json.123.tmp").write_text("half")  # a writer's temporary
+    os.utime(tree / "results/x/params.json", ns=(1_700_000_000_123_456_789,) * 2)
+
+    assert save(archive, ["results"], root=tree) == {"copied": 2, "kept": 0, "removed": 0}
+    assert not (archive / "results/x/.params.json.123.tmp").exists()
+
+    (tree / "results/x/evaluations.json").write_text('{"records": [1, 2]}')
+    (tree / "results/x/params.json").unlink()
+    assert save(archive, ["results"], root=tree) == {"copied": 1, "kept": 0, "removed": 1}
+
+    (tree / "results/x/params.json").write_text("{}")
+    os.utime(tree / "results/x/params.json", ns=(1_700_000_000_123_456_789,) * 2)
+    save(archive, ["results"], root=tree)
+    assert restore(archive, root=copy) == {"restored": 2, "kept": 0}
+    for name in ("evaluations.json", "params.json"):
+        original, restored = tree / "results/x" / name, copy / "results/x" / name
+        assert restored.read_text() == original.read_text()
+        assert restored.stat().st_mtime_ns == original.stat().st_mtime_ns
+
+
+def test_restore_leaves_files_already_there_and_save_keeps_folders_not_named(tmp_path):
+    tree, archive, copy = tmp_path / "tree", tmp_path / "archive", tmp_path / "copy"
+    for folder in ("results", "logs"):
+        (tree / folder).mkdir(parents=True)
+        (tree / folder / "f.txt").write_text(folder)
+    save(archive, ["results", "logs"], root=tree)
+    (tree / "logs/f.txt").unlink()
+    save(archive, ["results"], root=tree)  # logs not named: its file stays archived
+    (copy / "results").mkdir(parents=True)
+    (copy / "results/f.txt").write_text("newer, local")
+
+    assert restore(archive, root=copy) == {"restored": 1, "kept": 1}
+    assert (copy / "results/f.txt").read_text() == "newer, local"
+    assert (copy / "logs/f.txt").read_text() == "logs"
+
+
+def test_bad_input_gets_one_error_naming_the_path(tmp_path, capsys):
+    with pytest.raises(ArchiveError, match="no such folder"):
+        save(tmp_path / "archive", ["results"], root=tmp_path)
+    with pytest.raises(ArchiveError, match="inside"):
+        save(tmp_path / "archive", ["../elsewhere"], root=tmp_path)
+    (tmp_path / "archive").mkdir()
+    assert main(["restore", str(tmp_path / "archive")]) == 1
+    assert f"{tmp_path / 'archive'}: no {MTIMES}" in capsys.readouterr().err
