@@ -1,8 +1,9 @@
-"""A run's state carried to another machine: the files under some folders of a working tree (results, logs,
-benchmarks), copied into an archive folder with their modification times, and copied back with those times, so
-that Snakemake sees finished jobs as finished and an interrupted stage replays its stored evaluations.
+"""A run's state carried to another machine: the files under some folders of a working tree (its outputs, and the
+inputs and stage scripts Snakemake compares their times with), copied into an archive folder with their
+modification times, and copied back with those times, so that Snakemake sees finished jobs as finished and an
+interrupted stage replays its stored evaluations.
 
-    python -m rheo.archive save ARCHIVE results/concealed logs/concealed benchmarks/concealed
+    python -m rheo.archive save ARCHIVE stages config/experiments/suite_7 results/concealed logs/concealed
     python -m rheo.archive restore ARCHIVE
 
 The archive is a plain folder (the files under their paths, and ``mtimes.json``), so a version-control system
@@ -73,22 +74,29 @@ def save(archive: str | os.PathLike, folders: list[str], root: str | os.PathLike
 
 
 def restore(archive: str | os.PathLike, root: str | os.PathLike = ".") -> dict[str, int]:
-    """Copy the archived files that ``root`` lacks into it with their modification times; files already there are
-    left as they are. Returns how many files were restored and kept."""
+    """Copy the archived files that ``root`` lacks into it with their modification times. A file already there
+    takes the archived time where its content is the same (a run's inputs in a fresh checkout, as new as the
+    checkout) and is left as it is where it differs, so that Snakemake reruns what depends on it. Returns how many
+    files were restored, matched and kept."""
     archive, root = Path(archive), Path(root)
     if not (archive / MTIMES).is_file():
         raise ArchiveError(f"{archive}: no {MTIMES}, not an archive that rheo.archive saved")
     mtimes = read_json(archive / MTIMES)
-    restored = 0
+    counts = {"restored": 0, "matched": 0, "kept": 0}
     for relative, mtime_ns in mtimes.items():
         source = archive / relative
         if not source.is_file():
             raise ArchiveError(f"{source}: listed in {archive / MTIMES} but missing")
         target = root / relative
         if not target.exists():
-            _copy(source, target, int(mtime_ns))
-            restored += 1
-    return {"restored": restored, "kept": len(mtimes) - restored}
+            _copy(source, target, mtime_ns)
+            counts["restored"] += 1
+        elif target.is_file() and filecmp.cmp(source, target, shallow=False):
+            os.utime(target, ns=(mtime_ns, mtime_ns))
+            counts["matched"] += 1
+        else:
+            counts["kept"] += 1
+    return counts
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -97,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     saving = commands.add_parser("save", help="mirror folders of the working tree into an archive")
     saving.add_argument("archive")
     saving.add_argument("folders", nargs="+", help="folders relative to --root")
-    restoring = commands.add_parser("restore", help="copy an archive's files that the working tree lacks into it")
+    restoring = commands.add_parser("restore", help="copy an archive's files into the working tree where it lacks them")
     restoring.add_argument("archive")
     for command in (saving, restoring):
         command.add_argument("--root", default=".", help="the working tree (default: here)")

@@ -2,6 +2,7 @@
 and runs only what was left; the archive keeps modification times to the nanosecond and stores only what changed."""
 
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -15,8 +16,9 @@ rule all:
     input: "results/b.txt", "results/c.txt"
 
 rule a:
+    input: "config/a.txt"
     output: "results/z_from_a.txt"
-    shell: "echo a > {output} && echo ran a >> runs.log"
+    shell: "cat {input} > {output} && echo ran a >> runs.log"
 
 rule b:
     input: "results/z_from_a.txt"
@@ -36,14 +38,17 @@ def snakemake(workdir: Path, target: str = "all") -> None:
 
 def test_snakemake_resumes_on_a_restored_copy_without_running_the_finished_jobs_again(tmp_path):
     first, second, archive = tmp_path / "first", tmp_path / "second", tmp_path / "archive"
-    for tree in (first, second):
-        tree.mkdir()
-        (tree / "Snakefile").write_text(SNAKEFILE)
+    first.mkdir()
+    (first / "config").mkdir()
+    (first / "config/a.txt").write_text("a\n")
+    (first / "Snakefile").write_text(SNAKEFILE)
     snakemake(first, "results/b.txt")  # a and b finished; c not yet
     assert (first / "runs.log").read_text().split() == ["ran", "a", "ran", "b"]
+    save(archive, ["config", "results"], root=first)
 
-    save(archive, ["results"], root=first)
-    restore(archive, root=second)
+    shutil.copytree(first, second, ignore=shutil.ignore_patterns("results", "runs.log", ".snakemake"))
+    (second / "config/a.txt").touch()  # a fresh checkout: its files as new as the checkout
+    assert restore(archive, root=second) == {"restored": 2, "matched": 1, "kept": 0}
     snakemake(second)
 
     assert (second / "runs.log").read_text().split() == ["ran", "c"]
@@ -68,27 +73,31 @@ def test_times_are_kept_and_only_changed_files_are_copied(tmp_path):
     (tree / "results/x/params.json").write_text("{}")
     os.utime(tree / "results/x/params.json", ns=(1_700_000_000_123_456_789,) * 2)
     save(archive, ["results"], root=tree)
-    assert restore(archive, root=copy) == {"restored": 2, "kept": 0}
+    assert restore(archive, root=copy) == {"restored": 2, "matched": 0, "kept": 0}
     for name in ("evaluations.json", "params.json"):
         original, restored = tree / "results/x" / name, copy / "results/x" / name
         assert restored.read_text() == original.read_text()
         assert restored.stat().st_mtime_ns == original.stat().st_mtime_ns
 
 
-def test_restore_leaves_files_already_there_and_save_keeps_folders_not_named(tmp_path):
+def test_restore_leaves_files_that_differ_and_save_keeps_folders_not_named(tmp_path):
     tree, archive, copy = tmp_path / "tree", tmp_path / "archive", tmp_path / "copy"
-    for folder in ("results", "logs"):
+    for folder in ("results", "logs", "config"):
         (tree / folder).mkdir(parents=True)
         (tree / folder / "f.txt").write_text(folder)
-    save(archive, ["results", "logs"], root=tree)
+    save(archive, ["results", "logs", "config"], root=tree)
     (tree / "logs/f.txt").unlink()
     save(archive, ["results"], root=tree)  # logs not named: its file stays archived
-    (copy / "results").mkdir(parents=True)
-    (copy / "results/f.txt").write_text("newer, local")
+    for folder, text in (("results", "newer, local"), ("config", "config")):
+        (copy / folder).mkdir(parents=True)
+        (copy / folder / "f.txt").write_text(text)
+    local = (copy / "results/f.txt").stat().st_mtime_ns
 
-    assert restore(archive, root=copy) == {"restored": 1, "kept": 1}
+    assert restore(archive, root=copy) == {"restored": 1, "matched": 1, "kept": 1}
     assert (copy / "results/f.txt").read_text() == "newer, local"
+    assert (copy / "results/f.txt").stat().st_mtime_ns == local
     assert (copy / "logs/f.txt").read_text() == "logs"
+    assert (copy / "config/f.txt").stat().st_mtime_ns == (tree / "config/f.txt").stat().st_mtime_ns
 
 
 def test_bad_input_gets_one_error_naming_the_path(tmp_path, capsys):
