@@ -1,0 +1,70 @@
+"""diagnose: what a dam-break fit leaves out. The base fit's mismatch located in time and space, every candidate
+effect tried in a short refit and ranked by the information criterion, the winner refitted, the gain measured on
+the frames held out of every fit; with rheometer curves, the flow-curve error before and after."""
+
+import time
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from rheo.diagnose.dam_break import diagnose
+from rheo.experiments.rheometer import read_flow_curve
+from rheo.fit.dam_break import RESULT_KEYS, setup_files, shear_rate_band
+from rheo.fit.search import EvaluationLog
+from rheo.io import read_json, write_json_atomic, write_text_atomic
+from rheo.report.diagnosis import maps_figure, section
+from rheo.report.figures import save_figure
+from rheo.report.html import page
+from rheo.report.virheometry import rheometer_comparison
+from rheo.stage import inputs_key, start_stage
+
+smk = snakemake  # noqa: F821  (injected by Snakemake)
+log = start_stage(smk)
+started = time.time()
+setups = setup_files(smk.input.setups, smk.input.masks)
+fit = read_json(smk.input.fit)
+base_values = {name: fit[key]["value"] for name, key in RESULT_KEYS.items()}
+base_intervals = {name: tuple(fit[key]["interval"]) for name, key in RESULT_KEYS.items()}
+output = Path(smk.output.diagnosis)
+settings = smk.params.settings
+evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
+                            inputs_key([settings, smk.params.fit_settings, smk.params.simulation],
+                                       [smk.input.fit, *smk.input.setups, *smk.input.masks]))
+bar = tqdm(desc=f"diagnose {output.parent.parent.name}", unit="evaluation")
+
+
+def progress(law: str, x: np.ndarray, loss: float) -> None:
+    bar.update()
+    log.info("evaluation %d (%s): loss %.5g px at %s", bar.n, law, loss, np.round(x, 4).tolist())
+
+
+result = diagnose(setups, smk.params.simulation, smk.params.fit_settings, settings, base_values, base_intervals,
+                  evaluations, smk.threads, progress)
+bar.close()
+record = result.record()
+record["runtime_s"] = evaluations.earlier_seconds + time.time() - started
+log.info("verdict: %s", record["verdict"])
+for name, words in ((n, m["words"]) for n, m in record["mismatch"].items()):
+    log.info("%s: %s", name, words)
+
+extra = ""
+curves = [read_flow_curve(p) for p in getattr(smk.input, "rheometer", [])]
+band = shear_rate_band(list(result.before.values()))
+if curves and band is not None:
+    laws = {label: tuple(result.values(refit)[k] for k in RESULT_KEYS.values())
+            for label, refit in (("base fit", result.base), ("refit", result.chosen)) if refit is not None}
+    table, errors = rheometer_comparison(laws, curves, band)
+    for name, error in errors.items():
+        log.info("%s: RMS log10 error %s over %.3g-%.3g 1/s", name, error, *band)
+    record["flow_curve_rms_log10"] = {"band_per_s": band, "by_curve": errors}
+    extra = f"<h3>Flow curve against the rheometer</h3>{table}"
+
+frames = {name: (np.load(files[1])["masks"], result.before[name].silhouettes,
+                 None if result.chosen is None else result.after[name].silhouettes, result.before[name].fitted)
+          for name, files in setups.items()}
+save_figure(maps_figure(frames), smk.output.maps)
+write_json_atomic(output, record)
+body = f"<h2>What the model leaves out</h2>{section(record, Path(smk.output.maps).read_bytes(), extra)}"
+write_text_atomic(smk.output.report, page(smk.params.title, body))
+evaluations.path.unlink(missing_ok=True)

@@ -1,0 +1,169 @@
+"""virheometry_fit: tau_y, K and n (or tau_y and K at a fixed flow index) of one material from its dam breaks (all
+its setups jointly, or one), with the first frame's time after the release found for each setup. With the flow
+index free, a line search of the stress at a shear rate typical of the flow, then searches of tau_y and K at a row of
+flow indices from that stress (each keeping it at first), whose best losses are the flow index's profile; with the
+flow index fixed, a survey of the box instead.
+Simplex searches from the survey's best points side by side (with the flow index fixed), then
+rounds of a composite design around the best, each followed by a quadratic fitted to the squared losses
+(rheo.fit.surface): its lowest point, or the best law evaluated where that loses less, is the estimate, and the
+region where it stays within the tolerance gives the intervals, n's grown to where its profile stays within it.
+Each evaluation simulates the setups side by side, the survey's and the designs' points two at a time.
+Every evaluation is stored, so an interrupted fit resumes."""
+
+import csv
+import time
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+from tqdm.auto import tqdm
+
+from rheo.diagnose.candidates import Law
+from rheo.fit.dam_break import (
+    MOVING_RATE,
+    RESULT_KEYS,
+    comparisons,
+    flow_index_profile,
+    setup_files,
+    shear_rate_band,
+    stress_level,
+)
+from rheo.fit.parallel import Evaluator
+from rheo.fit.search import EvaluationLog, estimate, start_step, survey_points
+from rheo.fit.uncertainty import grown_to_profile, tolerance_level
+from rheo.io import json_number, write_atomic, write_json_atomic
+from rheo.report.figures import save_figure
+from rheo.report.virheometry import frames_figure
+from rheo.stage import inputs_key, start_stage
+
+smk = snakemake  # noqa: F821  (injected by Snakemake)
+log = start_stage(smk)
+started = time.time()
+settings, simulation = smk.params.settings, smk.params.simulation
+setups = setup_files(smk.input.setups, smk.input.masks)
+law = Law(n=settings.get("flow_index"))
+names = law.names
+low = np.log([settings[n][0] for n in names])
+high = np.log([settings[n][1] for n in names])
+output = Path(smk.output.params)
+evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
+                            inputs_key([settings, simulation], [*smk.input.setups, *smk.input.masks]),
+                            one_objective=True)
+bar = tqdm(desc=f"{output.parent.parent.name} {output.parent.name}", unit="evaluation")
+
+
+def describe(x: np.ndarray) -> str:
+    return ", ".join(f"{n} {v:.4g}" for n, v in zip(names, np.exp(x), strict=True))
+
+
+with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.threads) as evaluator:
+
+    def joint(points: list[np.ndarray]) -> list[float]:
+        """The mean over the setups of each point's loss; all (setup, point) simulations side by side, one setup's
+        after the other's, so that the workers end together where the setups take unequal times."""
+        results = evaluator.map([(name, x) for name in setups for x in points])
+        losses = [float(np.mean([results[k * len(points) + i].loss for k in range(len(setups))]))
+                  for i in range(len(points))]
+        for x, loss in zip(points, losses, strict=True):
+            bar.update()
+            log.info("evaluation %d: loss %.5g px, %s", bar.n, loss, describe(x))
+        return losses
+
+    evaluate_many = partial(evaluations.evaluate_many, joint)  # points, phase -> losses, stored
+    searched_flow_indices = law.n is None and bool(settings["flow_index_searches"])
+    if searched_flow_indices:
+        log_stress = stress_level(evaluate_many, settings["stress_rate"], (low, high), settings["stress_evaluations"])
+        found = flow_index_profile(evaluate_many, log_stress, settings["flow_index_searches"],
+                                   settings["stress_rate"], settings["flow_index_evaluations"], (low, high))
+        # the surface is centred on the searches' best law, without simplex searches
+        simplex_evaluations, step = 0, 0.0
+    else:
+        points = survey_points(0.5 * (low + high), 0.5 * (high - low), settings["samples"])
+        # in chunks that keep every worker busy, each stored as it ends
+        chunk = max(smk.threads, 1)
+        losses = np.concatenate([evaluate_many(list(points[i:i + chunk]), "survey")
+                                 for i in range(0, len(points), chunk)])
+        found = list(zip(points, losses, strict=True))
+        simplex_evaluations = settings["evaluations"]
+        step = start_step((high - low).min(), settings["samples"], len(names))
+    starts = [x for x, _ in sorted(found, key=lambda f: f[1])[:settings["starts"]]]
+
+    def simulate(x: np.ndarray) -> dict:
+        """Each setup's comparison at ``x``, with its frames, IoU and shear rates."""
+        return dict(zip(setups, evaluator.map([(name, x) for name in setups]), strict=True))
+
+    simulated: dict[tuple, dict] = {}
+
+    def evaluate_estimate(x: np.ndarray) -> float:
+        """The estimate's loss, from a simulation whose details (frames, IoU, shear rates) the results keep."""
+        simulated[tuple(x)] = simulate(x)
+        return evaluations.evaluate_many(lambda _: [float(np.mean([d.loss for d in simulated[tuple(x)].values()]))],
+                                         [x], "estimate")[0]
+
+    result = estimate(evaluate_many, starts, names, seen=evaluations.seen,
+                      evaluations=simplex_evaluations, start_step=step, half_width=settings["half_width"],
+                      rounds=settings["rounds"], tolerance=settings["tolerance"], box=(low, high), side_by_side=True,
+                      evaluate_estimate=evaluate_estimate)
+    x, loss, intervals = result.log_values, result.loss, result.intervals
+    profile_record = None
+    if searched_flow_indices:
+        by_index = sorted(found, key=lambda f: f[0][2])
+        for law_x, value in by_index:
+            log.info("flow-index profile: loss %.5g px at %s", value, describe(law_x))
+        profile_record = {key: [float(np.exp(law_x[i])) for law_x, _ in by_index]
+                          for i, key in enumerate(RESULT_KEYS.values())} | {"loss_px": [v for _, v in by_index]}
+        intervals["n"] = grown_to_profile(intervals["n"], profile_record["n"], profile_record["loss_px"],
+                                          tolerance_level(loss, settings["tolerance"]))
+    log.info("estimate: loss %.5g px, %s", loss, describe(x))
+    details = simulated.get(tuple(x)) or simulate(x)
+bar.close()
+
+spread = result.within_tolerance
+ranges = ", ".join(f"{n} {np.exp(lo):.3g}-{np.exp(hi):.3g}" for n, (lo, hi) in zip(names, spread.ranges, strict=True))
+if spread.ridge:
+    log.warning("the recordings leave the law on a ridge: %d evaluated materials within the tolerance span %s%s",
+                spread.count, ranges, " (one setup only)" if len(setups) == 1 else "")
+else:
+    log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
+band = shear_rate_band(list(details.values()))
+params = {RESULT_KEYS[n]: {"value": i.value, "interval": [i.low, i.high], "determined": i.determined,
+                           "interval_open": list(i.open)} for n, i in intervals.items()}
+if law.n is not None:
+    params[RESULT_KEYS["n"]] = {"value": law.n, "interval": [law.n, law.n], "determined": True, "fixed": True}
+for n, i in intervals.items():
+    log.info("%s = %.4g, tolerance interval [%.4g, %.4g]%s", n, i.value, i.low, i.high,
+             "" if i.determined else " (not determined by the recordings)")
+if band is not None:
+    log.info("shear rates reached (5th-95th percentile of moving particles): %.3g-%.3g 1/s", *band)
+else:
+    log.warning("no particle moved faster than %g 1/s: no shear-rate band", MOVING_RATE)
+write_json_atomic(output, {
+    **params, "setups": {name: {"loss_px": d.loss, "held_out_loss_px": json_number(d.held_out_loss),
+                                "forecast_loss_px": json_number(d.forecast_loss),
+                                "first_frame_after_release_s": d.offset,
+                                "boundary_distance_px": d.distances.tolist(), "silhouette_iou": d.iou.tolist(),
+                                "outflow_iou": d.outflow_iou.tolist()} for name, d in details.items()},
+    "within_tolerance": {"evaluations": spread.count, "ridge": spread.ridge, "laws": np.exp(spread.points).tolist(),
+                         **{RESULT_KEYS[n]: np.exp(r).tolist() for n, r in zip(names, spread.ranges, strict=True)},
+                         "spread_direction_log": None if spread.direction is None
+                         else dict(zip(names, spread.direction.tolist(), strict=True))},
+    "flow_index_profile": profile_record,
+    "shear_rate_band_per_s": band, "loss_px": loss, "evidence": result.evidence["all_free"],
+    "tolerance": settings["tolerance"],
+    "elastic_constants_Pa": {"mu": simulation["mu"], "lam": simulation["lam"]},
+    "runtime_s": evaluations.earlier_seconds + time.time() - started})
+
+
+def write_history(path: Path) -> None:
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["phase", "evaluation", "loss_px", *names])
+        for i, record in enumerate(evaluations.records):
+            writer.writerow([record["phase"], i, record["loss"], *np.exp(record["x"]).tolist()])
+
+
+write_atomic(smk.output.history, write_history)
+masks = {name: np.load(files[1])["masks"] for name, files in setups.items()}
+save_figure(frames_figure({name: (masks[name], d.silhouettes, d.iou) for name, d in details.items()}),
+            smk.output.frames)
+evaluations.path.unlink(missing_ok=True)

@@ -1,0 +1,49 @@
+"""virheometry_summary: every material's recovered law in one table (values, intervals, IoU, shear-rate band, error
+against its rheometer's curves where there are some, runtime) and one plot of all flow curves, with a link to each
+material's page."""
+
+from pathlib import Path
+
+import numpy as np
+
+from rheo.experiments.rheometer import read_flow_curve
+from rheo.fit.dam_break import RESULT_KEYS
+from rheo.io import read_json, write_text_atomic
+from rheo.report.fit import interval_text
+from rheo.report.html import figure_tag, link_tag, page, table_tag
+from rheo.report.virheometry import rheometer_comparison, summary_figure
+from rheo.stage import start_stage
+
+smk = snakemake  # noqa: F821  (injected by Snakemake)
+log = start_stage(smk)
+KEYS = tuple(RESULT_KEYS.values())
+output = Path(smk.output[0])
+rows, laws, links = [], {}, []
+for material, path, report in zip(smk.params.materials, smk.input.params, smk.input.reports, strict=True):
+    fit = read_json(path)
+    cells = [material]
+    for key in KEYS:
+        p = fit[key]
+        cells.append(f"{p['value']:.3g} {interval_text(p)}" + ("" if p["determined"] else " *"))
+    cells.append(", ".join(f"{np.mean(s['silhouette_iou']):.3f}" for s in fit["setups"].values()))
+    band = fit["shear_rate_band_per_s"]
+    law = tuple(fit[k]["value"] for k in KEYS)
+    curves = [read_flow_curve(p) for p in smk.params.rheometer[material]]
+    errors = rheometer_comparison({"fit": law}, curves, band)[1] if curves and band is not None else {}
+    for name, error in errors.items():
+        log.info("%s against %s: RMS log10 error %.3f", material, name, error["fit"])
+    cells += ["none" if band is None else f"{band[0]:.2g}-{band[1]:.2g}",
+              ", ".join(f"{e['fit']:.3f}" for e in errors.values()) or "-",
+              "yes" if fit["within_tolerance"]["ridge"] else "no", f"{fit['runtime_s'] / 60:.1f}"]
+    rows.append(cells)
+    laws[material] = (law, None if band is None else tuple(band))
+    links.append(link_tag(str(Path(report).relative_to(output.parent)), material))
+body = (table_tag(["material", "tau_y (Pa) [tolerance]", "K (Pa s^n) [tolerance]", "n [tolerance]",
+                   "mean IoU per setup", "shear rates reached (1/s)",
+                   "RMS log10(stress / rheometer's) over them, per curve", "ridge", "runtime (min)"], rows)
+        + "<p>* not determined by the recordings (tolerance interval wider than a factor 4, for n 1.5, or open: < or "
+          ">, the materials within the tolerance go on past the fit's reach). Ridge: the evaluated "
+          "materials within the tolerance spread over a factor 4 or more in some parameter.</p>"
+        + figure_tag(summary_figure(laws), "recovered flow curves")
+        + f"<p>Each material's page (frames side by side, flow curve, camera checks): {', '.join(links)}.</p>")
+write_text_atomic(output, page("Real dam breaks: twelve materials", body))
