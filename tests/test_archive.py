@@ -1,6 +1,7 @@
 """A run's state carried to another machine: Snakemake, run on the restored copy, finds the finished jobs finished
 and runs only what was left; the archive keeps modification times to the nanosecond and stores only what changed."""
 
+import json
 import os
 import shutil
 import subprocess
@@ -108,3 +109,10 @@ def test_bad_input_gets_one_error_naming_the_path(tmp_path, capsys):
     (tmp_path / "archive").mkdir()
     assert main(["restore", str(tmp_path / "archive")]) == 1
     assert f"{tmp_path / 'archive'}: no {MTIMES}" in capsys.readouterr().err
+
+
+def test_every_stored_run_holds_the_files_it_lists():
+    studies = Path(__file__).resolve().parents[1] / "studies"
+    for listing in sorted(studies.glob("*/mtimes.json")):
+        missing = [name for name in json.loads(listing.read_text()) if not (listing.parent / name).is_file()]
+        assert not missing, f"{listing.parent.name}: {len(missing)} listed files missing, e.g. {missing[:3]}"
