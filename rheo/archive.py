@@ -27,14 +27,18 @@ class ArchiveError(Exception):
     """An archive that cannot be saved or restored, with the path and the reason."""
 
 
+def _inside(relative: str, root: Path, what: str) -> str:
+    if Path(relative).is_absolute() or ".." in Path(relative).parts:
+        raise ArchiveError(f"{relative}: {what} outside {root}")
+    return relative
+
+
 def _files(root: Path, folders: list[str]) -> dict[str, Path]:
     """The files under ``folders`` (relative to ``root``) by relative path, without hidden files (the temporaries of
     a writer still at work)."""
     found = {}
     for folder in folders:
-        if Path(folder).is_absolute() or ".." in Path(folder).parts:
-            raise ArchiveError(f"{folder}: give a folder inside {root}")
-        base = root / folder
+        base = root / _inside(folder, root, "a folder")
         if not base.is_dir():
             raise ArchiveError(f"{base}: no such folder")
         for path in base.rglob("*"):
@@ -82,9 +86,11 @@ def restore(archive: str | os.PathLike, root: str | os.PathLike = ".") -> dict[s
     if not (archive / MTIMES).is_file():
         raise ArchiveError(f"{archive}: no {MTIMES}, not an archive that rheo.archive saved")
     mtimes = read_json(archive / MTIMES)
+    if not isinstance(mtimes, dict) or not all(isinstance(t, int) for t in mtimes.values()):
+        raise ArchiveError(f"{archive / MTIMES}: expected file paths with their modification times (ns)")
     counts = {"restored": 0, "matched": 0, "kept": 0}
     for relative, mtime_ns in mtimes.items():
-        source = archive / relative
+        source = archive / _inside(relative, root, f"a file of {archive / MTIMES}")
         if not source.is_file():
             raise ArchiveError(f"{source}: listed in {archive / MTIMES} but missing")
         target = root / relative

@@ -104,11 +104,17 @@ def test_restore_leaves_files_that_differ_and_save_keeps_folders_not_named(tmp_p
 def test_bad_input_gets_one_error_naming_the_path(tmp_path, capsys):
     with pytest.raises(ArchiveError, match="no such folder"):
         save(tmp_path / "archive", ["results"], root=tmp_path)
-    with pytest.raises(ArchiveError, match="inside"):
+    with pytest.raises(ArchiveError, match="outside"):
         save(tmp_path / "archive", ["../elsewhere"], root=tmp_path)
     (tmp_path / "archive").mkdir()
     assert main(["restore", str(tmp_path / "archive")]) == 1
     assert f"{tmp_path / 'archive'}: no {MTIMES}" in capsys.readouterr().err
+    (tmp_path / "archive" / MTIMES).write_text(json.dumps({"../../etc/x": 1}))
+    with pytest.raises(ArchiveError, match="outside"):
+        restore(tmp_path / "archive", root=tmp_path / "tree")
+    (tmp_path / "archive" / MTIMES).write_text(json.dumps({"results/x": "yesterday"}))
+    with pytest.raises(ArchiveError, match="modification times"):
+        restore(tmp_path / "archive", root=tmp_path / "tree")
 
 
 def test_every_stored_run_holds_the_files_it_lists():
