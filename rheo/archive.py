@@ -1,26 +1,30 @@
-"""A run's state carried to another machine: the files under some folders of a working tree (its outputs, and the
-inputs and stage scripts Snakemake compares their times with), copied into an archive folder with their
-modification times, and copied back with those times, so that Snakemake sees finished jobs as finished and an
-interrupted stage replays its stored evaluations.
+"""A run's state carried to another machine: the files under some folders of a working tree (its outputs),
+copied into an archive folder with their modification times, and the fingerprints and times of its inputs (the
+files and stage scripts Snakemake compares those times with, which a checkout of the run's commit holds), so
+that, restored with those times, Snakemake sees finished jobs as finished and an interrupted stage replays its
+stored evaluations.
 
-    python -m rheo.archive save ARCHIVE stages config/experiments/suite_7 results/concealed logs/concealed
+    python -m rheo.archive save ARCHIVE results/concealed logs/concealed --inputs stages config/experiments/suite_7
     python -m rheo.archive restore ARCHIVE
 
-The archive is a plain folder (the files under their paths, and ``mtimes.json``), so a version-control system
-stores only the files that changed between two saves."""
+The archive is a plain folder (the files under their paths, ``mtimes.json`` and ``inputs.json``), so a
+version-control system stores only the files that changed between two saves."""
 
 from __future__ import annotations
 
 import argparse
 import filecmp
+import hashlib
 import os
 import shutil
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 from rheo.io import read_json, write_atomic, write_json_atomic
 
-MTIMES = "mtimes.json"
+MTIMES = "mtimes.json"  # archived file: its modification time (ns)
+INPUTS = "inputs.json"  # input file: its modification time (ns) and sha256
 
 
 class ArchiveError(Exception):
@@ -53,9 +57,16 @@ def _copy(source: Path, target: Path, mtime_ns: int) -> None:
     os.utime(target, ns=(mtime_ns, mtime_ns))
 
 
-def save(archive: str | os.PathLike, folders: list[str], root: str | os.PathLike = ".") -> dict[str, int]:
+def _sha256(path: Path) -> str:
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def save(archive: str | os.PathLike, folders: list[str], root: str | os.PathLike = ".",
+         inputs: list[str] = ()) -> dict[str, int]:
     """Mirror the files under ``folders`` into ``archive`` with their modification times (files that left those
-    folders leave the archive). Returns how many files were copied, kept and removed."""
+    folders leave the archive), and list the files under ``inputs`` by time and fingerprint. Returns how many files
+    were copied, kept, removed and listed."""
     archive, root = Path(archive), Path(root)
     files = _files(root, folders)
     old = read_json(archive / MTIMES) if (archive / MTIMES).is_file() else {}
@@ -74,34 +85,49 @@ def save(archive: str | os.PathLike, folders: list[str], root: str | os.PathLike
         else:  # a folder not saved this time stays as it was
             mtimes[relative] = old[relative]
     write_json_atomic(archive / MTIMES, dict(sorted(mtimes.items())))
-    return {"copied": copied, "kept": len(files) - copied, "removed": removed}
+    listed = {relative: {"mtime_ns": path.stat().st_mtime_ns, "sha256": _sha256(path)}
+              for relative, path in sorted(_files(root, list(inputs)).items())}
+    if inputs or not (archive / INPUTS).is_file():  # a save without inputs keeps the earlier listing
+        write_json_atomic(archive / INPUTS, listed)
+    return {"copied": copied, "kept": len(files) - copied, "removed": removed, "inputs listed": len(listed)}
+
+
+def _listing(path: Path, valid: Callable[[object], bool], what: str) -> dict:
+    listing = read_json(path) if path.is_file() else {}
+    if not isinstance(listing, dict) or not all(valid(v) for v in listing.values()):
+        raise ArchiveError(f"{path}: expected file paths with {what}")
+    return listing
 
 
 def restore(archive: str | os.PathLike, root: str | os.PathLike = ".") -> dict[str, int]:
-    """Copy the archived files that ``root`` lacks into it with their modification times. A file already there
-    takes the archived time where its content is the same (a run's inputs in a fresh checkout, as new as the
-    checkout) and is left as it is where it differs, so that Snakemake reruns what depends on it. Returns how many
-    files were restored, matched and kept."""
+    """Copy the archived files that ``root`` lacks into it with their modification times (files already there are
+    left as they are), and give the listed inputs whose content is the same their listed times; an input that
+    differs keeps its own, so that Snakemake reruns what depends on it. Returns how many files were restored and
+    kept, and how many inputs matched and differed."""
     archive, root = Path(archive), Path(root)
     if not (archive / MTIMES).is_file():
         raise ArchiveError(f"{archive}: no {MTIMES}, not an archive that rheo.archive saved")
-    mtimes = read_json(archive / MTIMES)
-    if not isinstance(mtimes, dict) or not all(isinstance(t, int) for t in mtimes.values()):
-        raise ArchiveError(f"{archive / MTIMES}: expected file paths with their modification times (ns)")
-    counts = {"restored": 0, "matched": 0, "kept": 0}
+    mtimes = _listing(archive / MTIMES, lambda t: isinstance(t, int), "their modification times (ns)")
+    inputs = _listing(archive / INPUTS, lambda v: isinstance(v, dict) and isinstance(v.get("mtime_ns"), int),
+                      "their modification times (ns) and sha256")
+    counts = {"restored": 0, "kept": 0, "inputs matched": 0, "inputs differing": 0}
     for relative, mtime_ns in mtimes.items():
         source = archive / _inside(relative, root, f"a file of {archive / MTIMES}")
         if not source.is_file():
             raise ArchiveError(f"{source}: listed in {archive / MTIMES} but missing")
         target = root / relative
-        if not target.exists():
+        if target.exists():
+            counts["kept"] += 1
+        else:
             _copy(source, target, mtime_ns)
             counts["restored"] += 1
-        elif target.is_file() and filecmp.cmp(source, target, shallow=False):
-            os.utime(target, ns=(mtime_ns, mtime_ns))
-            counts["matched"] += 1
+    for relative, listed in inputs.items():
+        target = root / _inside(relative, root, f"a file of {archive / INPUTS}")
+        if target.is_file() and _sha256(target) == listed["sha256"]:
+            os.utime(target, ns=(listed["mtime_ns"], listed["mtime_ns"]))
+            counts["inputs matched"] += 1
         else:
-            counts["kept"] += 1
+            counts["inputs differing"] += 1
     return counts
 
 
@@ -110,14 +136,15 @@ def main(argv: list[str] | None = None) -> int:
     commands = parser.add_subparsers(dest="command", required=True)
     saving = commands.add_parser("save", help="mirror folders of the working tree into an archive")
     saving.add_argument("archive")
-    saving.add_argument("folders", nargs="+", help="folders relative to --root")
+    saving.add_argument("folders", nargs="+", help="folders whose files are copied, relative to --root")
+    saving.add_argument("--inputs", nargs="+", default=[], help="folders whose files are listed, relative to --root")
     restoring = commands.add_parser("restore", help="copy an archive's files into the working tree where it lacks them")
     restoring.add_argument("archive")
     for command in (saving, restoring):
         command.add_argument("--root", default=".", help="the working tree (default: here)")
     args = parser.parse_args(argv)
     try:
-        counts = (save(args.archive, args.folders, args.root) if args.command == "save"
+        counts = (save(args.archive, args.folders, args.root, args.inputs) if args.command == "save"
                   else restore(args.archive, args.root))
     except ArchiveError as error:
         print(f"error: {error}", file=sys.stderr)

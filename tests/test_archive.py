@@ -10,11 +10,11 @@ from pathlib import Path
 
 import pytest
 
-from rheo.archive import MTIMES, ArchiveError, main, restore, save
+from rheo.archive import INPUTS, MTIMES, ArchiveError, main, restore, save
 
 SNAKEFILE = """
 rule all:
-    input: "results/b.txt", "results/c.txt"
+    input: "results/c.txt"
 
 rule a:
     input: "config/a.txt"
@@ -24,7 +24,7 @@ rule a:
 rule b:
     input: "results/z_from_a.txt"
     output: "results/b.txt"
-    shell: "cat {input} > {output} && echo b >> {output} && echo ran b >> runs.log"
+    script: "stages/b.py"
 
 rule c:
     input: "results/b.txt"
@@ -32,28 +32,51 @@ rule c:
     shell: "cat {input} > {output} && echo c >> {output} && echo ran c >> runs.log"
 """
 
+STAGE_B = """
+from pathlib import Path
+Path(snakemake.output[0]).write_text(Path(snakemake.input[0]).read_text() + "b\\n")
+with open("runs.log", "a") as log:
+    log.write("ran b\\n")
+"""
+
 
 def snakemake(workdir: Path, target: str = "all") -> None:
     subprocess.run([sys.executable, "-m", "snakemake", "-j1", target], cwd=workdir, check=True, capture_output=True)
 
 
-def test_snakemake_resumes_on_a_restored_copy_without_running_the_finished_jobs_again(tmp_path):
+def test_snakemake_resumes_on_a_restored_checkout_without_running_the_finished_jobs_again(tmp_path):
     first, second, archive = tmp_path / "first", tmp_path / "second", tmp_path / "archive"
-    first.mkdir()
-    (first / "config").mkdir()
-    (first / "config/a.txt").write_text("a\n")
-    (first / "Snakefile").write_text(SNAKEFILE)
+    for name, text in (("Snakefile", SNAKEFILE), ("config/a.txt", "a\n"), ("stages/b.py", STAGE_B)):
+        (first / name).parent.mkdir(parents=True, exist_ok=True)
+        (first / name).write_text(text)
     snakemake(first, "results/b.txt")  # a and b finished; c not yet
     assert (first / "runs.log").read_text().split() == ["ran", "a", "ran", "b"]
-    save(archive, ["config", "results"], root=first)
+    save(archive, ["results"], root=first, inputs=["config", "stages"])
 
+    # a fresh checkout of the same files, as new as the checkout
     shutil.copytree(first, second, ignore=shutil.ignore_patterns("results", "runs.log", ".snakemake"))
-    (second / "config/a.txt").touch()  # a fresh checkout: its files as new as the checkout
-    assert restore(archive, root=second) == {"restored": 2, "matched": 1, "kept": 0}
+    for name in ("config/a.txt", "stages/b.py"):
+        (second / name).touch()
+    assert restore(archive, root=second) == {"restored": 2, "kept": 0, "inputs matched": 2, "inputs differing": 0}
     snakemake(second)
 
     assert (second / "runs.log").read_text().split() == ["ran", "c"]
     assert (second / "results/c.txt").read_text().split() == ["a", "b", "c"]
+
+
+def test_an_input_that_differs_keeps_its_time_so_what_depends_on_it_runs_again(tmp_path):
+    first, second, archive = tmp_path / "first", tmp_path / "second", tmp_path / "archive"
+    for name, text in (("Snakefile", SNAKEFILE), ("config/a.txt", "a\n"), ("stages/b.py", STAGE_B)):
+        (first / name).parent.mkdir(parents=True, exist_ok=True)
+        (first / name).write_text(text)
+    snakemake(first, "results/b.txt")
+    save(archive, ["results"], root=first, inputs=["config", "stages"])
+    shutil.copytree(first, second, ignore=shutil.ignore_patterns("results", "runs.log", ".snakemake"))
+    (second / "config/a.txt").write_text("A\n")
+
+    assert restore(archive, root=second)["inputs differing"] == 1
+    snakemake(second)
+    assert (second / "results/c.txt").read_text().split() == ["A", "b", "c"]
 
 
 def test_times_are_kept_and_only_changed_files_are_copied(tmp_path):
@@ -64,41 +87,39 @@ def test_times_are_kept_and_only_changed_files_are_copied(tmp_path):
     (tree / "results/x/.params.json.123.tmp").write_text("half")  # a writer's temporary
     os.utime(tree / "results/x/params.json", ns=(1_700_000_000_123_456_789,) * 2)
 
-    assert save(archive, ["results"], root=tree) == {"copied": 2, "kept": 0, "removed": 0}
+    assert save(archive, ["results"], root=tree) == {"copied": 2, "kept": 0, "removed": 0, "inputs listed": 0}
     assert not (archive / "results/x/.params.json.123.tmp").exists()
 
     (tree / "results/x/evaluations.json").write_text('{"records": [1, 2]}')
     (tree / "results/x/params.json").unlink()
-    assert save(archive, ["results"], root=tree) == {"copied": 1, "kept": 0, "removed": 1}
+    assert save(archive, ["results"], root=tree) == {"copied": 1, "kept": 0, "removed": 1, "inputs listed": 0}
 
     (tree / "results/x/params.json").write_text("{}")
     os.utime(tree / "results/x/params.json", ns=(1_700_000_000_123_456_789,) * 2)
     save(archive, ["results"], root=tree)
-    assert restore(archive, root=copy) == {"restored": 2, "matched": 0, "kept": 0}
+    assert restore(archive, root=copy)["restored"] == 2
     for name in ("evaluations.json", "params.json"):
         original, restored = tree / "results/x" / name, copy / "results/x" / name
         assert restored.read_text() == original.read_text()
         assert restored.stat().st_mtime_ns == original.stat().st_mtime_ns
 
 
-def test_restore_leaves_files_that_differ_and_save_keeps_folders_not_named(tmp_path):
+def test_restore_leaves_files_already_there_and_save_keeps_folders_not_named(tmp_path):
     tree, archive, copy = tmp_path / "tree", tmp_path / "archive", tmp_path / "copy"
-    for folder in ("results", "logs", "config"):
+    for folder in ("results", "logs"):
         (tree / folder).mkdir(parents=True)
         (tree / folder / "f.txt").write_text(folder)
-    save(archive, ["results", "logs", "config"], root=tree)
+    save(archive, ["results", "logs"], root=tree)
     (tree / "logs/f.txt").unlink()
     save(archive, ["results"], root=tree)  # logs not named: its file stays archived
-    for folder, text in (("results", "newer, local"), ("config", "config")):
-        (copy / folder).mkdir(parents=True)
-        (copy / folder / "f.txt").write_text(text)
+    (copy / "results").mkdir(parents=True)
+    (copy / "results/f.txt").write_text("newer, local")
     local = (copy / "results/f.txt").stat().st_mtime_ns
 
-    assert restore(archive, root=copy) == {"restored": 1, "matched": 1, "kept": 1}
+    assert restore(archive, root=copy) == {"restored": 1, "kept": 1, "inputs matched": 0, "inputs differing": 0}
     assert (copy / "results/f.txt").read_text() == "newer, local"
     assert (copy / "results/f.txt").stat().st_mtime_ns == local
     assert (copy / "logs/f.txt").read_text() == "logs"
-    assert (copy / "config/f.txt").stat().st_mtime_ns == (tree / "config/f.txt").stat().st_mtime_ns
 
 
 def test_bad_input_gets_one_error_naming_the_path(tmp_path, capsys):
@@ -114,6 +135,10 @@ def test_bad_input_gets_one_error_naming_the_path(tmp_path, capsys):
         restore(tmp_path / "archive", root=tmp_path / "tree")
     (tmp_path / "archive" / MTIMES).write_text(json.dumps({"results/x": "yesterday"}))
     with pytest.raises(ArchiveError, match="modification times"):
+        restore(tmp_path / "archive", root=tmp_path / "tree")
+    (tmp_path / "archive" / MTIMES).write_text("{}")
+    (tmp_path / "archive" / INPUTS).write_text(json.dumps({"stages/b.py": 5}))
+    with pytest.raises(ArchiveError, match=f"{INPUTS}: expected"):
         restore(tmp_path / "archive", root=tmp_path / "tree")
 
 
