@@ -38,17 +38,16 @@ def _inside(relative: str, root: Path, what: str) -> str:
 
 
 def _files(root: Path, folders: list[str]) -> dict[str, Path]:
-    """The files under ``folders`` (relative to ``root``) by relative path, without hidden files (the temporaries of
-    a writer still at work)."""
+    """The files under ``folders`` (relative to ``root``) by relative path, without hidden files inside them (the
+    temporaries of a writer still at work); a folder named may be hidden (Snakemake's ``.snakemake/metadata``)."""
     found = {}
     for folder in folders:
         base = root / _inside(folder, root, "a folder")
         if not base.is_dir():
             raise ArchiveError(f"{base}: no such folder")
         for path in base.rglob("*"):
-            relative = path.relative_to(root)
-            if path.is_file() and not any(part.startswith(".") for part in relative.parts):
-                found[relative.as_posix()] = path
+            if path.is_file() and not any(part.startswith(".") for part in path.relative_to(base).parts):
+                found[path.relative_to(root).as_posix()] = path
     return found
 
 

@@ -40,8 +40,9 @@ with open("runs.log", "a") as log:
 """
 
 
-def snakemake(workdir: Path, target: str = "all") -> None:
-    subprocess.run([sys.executable, "-m", "snakemake", "-j1", target], cwd=workdir, check=True, capture_output=True)
+def snakemake(workdir: Path, target: str = "all", *options: str) -> None:
+    subprocess.run([sys.executable, "-m", "snakemake", "-j1", target, *options], cwd=workdir, check=True,
+                   capture_output=True)
 
 
 def test_snakemake_resumes_on_a_restored_checkout_without_running_the_finished_jobs_again(tmp_path):
@@ -77,6 +78,23 @@ def test_an_input_that_differs_keeps_its_time_so_what_depends_on_it_runs_again(t
     assert restore(archive, root=second)["inputs differing"] == 1
     snakemake(second)
     assert (second / "results/c.txt").read_text().split() == ["A", "b", "c"]
+
+
+def test_with_snakemakes_records_a_run_resumes_where_an_input_outside_the_checkout_is_newer(tmp_path):
+    first, second, archive, shared = tmp_path / "first", tmp_path / "second", tmp_path / "archive", tmp_path / "data"
+    shared.mkdir()
+    (shared / "a.txt").write_text("a\n")
+    for name, text in (("Snakefile", SNAKEFILE.replace("config/a.txt", "../data/a.txt")), ("stages/b.py", STAGE_B)):
+        (first / name).parent.mkdir(parents=True, exist_ok=True)
+        (first / name).write_text(text)
+    snakemake(first, "results/b.txt")
+    save(archive, ["results", ".snakemake/metadata"], root=first, inputs=["stages"])
+
+    shutil.copytree(first, second, ignore=shutil.ignore_patterns("results", "runs.log", ".snakemake"))
+    (shared / "a.txt").touch()  # the data as new as the machine it lies on
+    restore(archive, root=second)
+    snakemake(second, "all", "--rerun-triggers", "params", "input", "software-env", "code")
+    assert (second / "runs.log").read_text().split() == ["ran", "c"]
 
 
 def test_times_are_kept_and_only_changed_files_are_copied(tmp_path):
