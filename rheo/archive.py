@@ -18,7 +18,7 @@ import hashlib
 import os
 import shutil
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from rheo.io import read_json, write_atomic, write_json_atomic
@@ -37,7 +37,7 @@ def _inside(relative: str, root: Path, what: str) -> str:
     return relative
 
 
-def _files(root: Path, folders: list[str]) -> dict[str, Path]:
+def _files(root: Path, folders: Sequence[str]) -> dict[str, Path]:
     """The files under ``folders`` (relative to ``root``) by relative path, without hidden files inside them (the
     temporaries of a writer still at work); a folder named may be hidden (Snakemake's ``.snakemake/metadata``)."""
     found = {}
@@ -61,8 +61,8 @@ def _sha256(path: Path) -> str:
         return hashlib.file_digest(f, "sha256").hexdigest()
 
 
-def save(archive: str | os.PathLike, folders: list[str], root: str | os.PathLike = ".",
-         inputs: list[str] = ()) -> dict[str, int]:
+def save(archive: str | os.PathLike, folders: Sequence[str], root: str | os.PathLike = ".",
+         inputs: Sequence[str] = ()) -> dict[str, int]:
     """Mirror the files under ``folders`` into ``archive`` with their modification times (files that left those
     folders leave the archive), and list the files under ``inputs`` by time and fingerprint. Returns how many files
     were copied, kept, removed and listed."""
@@ -85,7 +85,7 @@ def save(archive: str | os.PathLike, folders: list[str], root: str | os.PathLike
             mtimes[relative] = old[relative]
     write_json_atomic(archive / MTIMES, dict(sorted(mtimes.items())))
     listed = {relative: {"mtime_ns": path.stat().st_mtime_ns, "sha256": _sha256(path)}
-              for relative, path in sorted(_files(root, list(inputs)).items())}
+              for relative, path in sorted(_files(root, inputs).items())}
     if inputs or not (archive / INPUTS).is_file():  # a save without inputs keeps the earlier listing
         write_json_atomic(archive / INPUTS, listed)
     return {"copied": copied, "kept": len(files) - copied, "removed": removed, "inputs listed": len(listed)}
