@@ -45,18 +45,27 @@ def snakemake(workdir: Path, target: str = "all", *options: str) -> None:
                    capture_output=True)
 
 
+def half_run(tree: Path, snakefile: str = SNAKEFILE, inputs: tuple[str, ...] = ("config/a.txt",)) -> None:
+    """A run of SNAKEFILE in ``tree`` stopped after jobs a and b (c not yet)."""
+    for name, text in (("Snakefile", snakefile), ("stages/b.py", STAGE_B), *((name, "a\n") for name in inputs)):
+        (tree / name).parent.mkdir(parents=True, exist_ok=True)
+        (tree / name).write_text(text)
+    snakemake(tree, "results/b.txt")
+
+
+def fresh_checkout(tree: Path, copy: Path) -> None:
+    """``tree``'s own files copied to ``copy``, without the run's outputs and Snakemake's records."""
+    shutil.copytree(tree, copy, ignore=shutil.ignore_patterns("results", "runs.log", ".snakemake"))
+
+
 def test_snakemake_resumes_on_a_restored_checkout_without_running_the_finished_jobs_again(tmp_path):
     first, second, archive = tmp_path / "first", tmp_path / "second", tmp_path / "archive"
-    for name, text in (("Snakefile", SNAKEFILE), ("config/a.txt", "a\n"), ("stages/b.py", STAGE_B)):
-        (first / name).parent.mkdir(parents=True, exist_ok=True)
-        (first / name).write_text(text)
-    snakemake(first, "results/b.txt")  # a and b finished; c not yet
+    half_run(first)
     assert (first / "runs.log").read_text().split() == ["ran", "a", "ran", "b"]
     save(archive, ["results"], root=first, inputs=["config", "stages"])
 
-    # a fresh checkout of the same files, as new as the checkout
-    shutil.copytree(first, second, ignore=shutil.ignore_patterns("results", "runs.log", ".snakemake"))
-    for name in ("config/a.txt", "stages/b.py"):
+    fresh_checkout(first, second)
+    for name in ("config/a.txt", "stages/b.py"):  # as new as the checkout
         (second / name).touch()
     assert restore(archive, root=second) == {"restored": 2, "kept": 0, "inputs matched": 2, "inputs differing": 0}
     snakemake(second)
@@ -67,12 +76,9 @@ def test_snakemake_resumes_on_a_restored_checkout_without_running_the_finished_j
 
 def test_an_input_that_differs_keeps_its_time_so_what_depends_on_it_runs_again(tmp_path):
     first, second, archive = tmp_path / "first", tmp_path / "second", tmp_path / "archive"
-    for name, text in (("Snakefile", SNAKEFILE), ("config/a.txt", "a\n"), ("stages/b.py", STAGE_B)):
-        (first / name).parent.mkdir(parents=True, exist_ok=True)
-        (first / name).write_text(text)
-    snakemake(first, "results/b.txt")
+    half_run(first)
     save(archive, ["results"], root=first, inputs=["config", "stages"])
-    shutil.copytree(first, second, ignore=shutil.ignore_patterns("results", "runs.log", ".snakemake"))
+    fresh_checkout(first, second)
     (second / "config/a.txt").write_text("A\n")
 
     assert restore(archive, root=second)["inputs differing"] == 1
@@ -82,15 +88,10 @@ def test_an_input_that_differs_keeps_its_time_so_what_depends_on_it_runs_again(t
 
 def test_with_snakemakes_records_a_run_resumes_where_an_input_outside_the_checkout_is_newer(tmp_path):
     first, second, archive, shared = tmp_path / "first", tmp_path / "second", tmp_path / "archive", tmp_path / "data"
-    shared.mkdir()
-    (shared / "a.txt").write_text("a\n")
-    for name, text in (("Snakefile", SNAKEFILE.replace("config/a.txt", "../data/a.txt")), ("stages/b.py", STAGE_B)):
-        (first / name).parent.mkdir(parents=True, exist_ok=True)
-        (first / name).write_text(text)
-    snakemake(first, "results/b.txt")
+    half_run(first, SNAKEFILE.replace("config/a.txt", "../data/a.txt"), inputs=("../data/a.txt",))
     save(archive, ["results", ".snakemake/metadata"], root=first, inputs=["stages"])
 
-    shutil.copytree(first, second, ignore=shutil.ignore_patterns("results", "runs.log", ".snakemake"))
+    fresh_checkout(first, second)
     (shared / "a.txt").touch()  # the data as new as the machine it lies on
     restore(archive, root=second)
     snakemake(second, "all", "--rerun-triggers", "params", "input", "software-env", "code")
