@@ -14,14 +14,13 @@ from __future__ import annotations
 
 import argparse
 import filecmp
-import hashlib
 import os
 import shutil
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
-from rheo.io import read_json, write_atomic, write_json_atomic
+from rheo.io import file_sha256, read_json, write_atomic, write_json_atomic
 
 MTIMES = "mtimes.json"  # archived file: its modification time (ns)
 INPUTS = "inputs.json"  # input file: its modification time (ns) and sha256
@@ -56,11 +55,6 @@ def _copy(source: Path, target: Path, mtime_ns: int) -> None:
     os.utime(target, ns=(mtime_ns, mtime_ns))
 
 
-def _sha256(path: Path) -> str:
-    with open(path, "rb") as f:
-        return hashlib.file_digest(f, "sha256").hexdigest()
-
-
 def save(archive: str | os.PathLike, folders: Sequence[str], root: str | os.PathLike = ".",
          inputs: Sequence[str] = ()) -> dict[str, int]:
     """Mirror the files under ``folders`` into ``archive`` with their modification times (files that left those
@@ -84,7 +78,7 @@ def save(archive: str | os.PathLike, folders: Sequence[str], root: str | os.Path
         else:  # a folder not saved this time stays as it was
             mtimes[relative] = old[relative]
     write_json_atomic(archive / MTIMES, dict(sorted(mtimes.items())))
-    listed = {relative: {"mtime_ns": path.stat().st_mtime_ns, "sha256": _sha256(path)}
+    listed = {relative: {"mtime_ns": path.stat().st_mtime_ns, "sha256": file_sha256(path)}
               for relative, path in sorted(_files(root, inputs).items())}
     if inputs or not (archive / INPUTS).is_file():  # a save without inputs keeps the earlier listing
         write_json_atomic(archive / INPUTS, listed)
@@ -122,7 +116,7 @@ def restore(archive: str | os.PathLike, root: str | os.PathLike = ".") -> dict[s
             counts["restored"] += 1
     for relative, listed in inputs.items():
         target = root / _inside(relative, root, f"a file of {archive / INPUTS}")
-        if target.is_file() and _sha256(target) == listed["sha256"]:
+        if target.is_file() and file_sha256(target) == listed["sha256"]:
             os.utime(target, ns=(listed["mtime_ns"], listed["mtime_ns"]))
             counts["inputs matched"] += 1
         else:

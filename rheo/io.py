@@ -1,8 +1,9 @@
-"""Atomic writes: a file appears complete under its final name or not at all."""
+"""Atomic writes (a file appears complete under its final name or not at all), JSON and file fingerprints."""
 
 from __future__ import annotations
 
 import glob
+import hashlib
 import json
 import math
 import os
@@ -90,3 +91,9 @@ def write_atomic_dir(path: str | os.PathLike, write: Callable[[Path], None]) -> 
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
+
+
+def file_sha256(path: str | os.PathLike) -> str:
+    """The sha256 of a file's bytes (hex)."""
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()

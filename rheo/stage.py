@@ -12,6 +12,7 @@ import traceback
 from pathlib import Path
 
 import rheo
+from rheo.io import file_sha256
 from rheo.physics.simulator import set_default_device
 
 
@@ -60,12 +61,11 @@ def code_version() -> str:
 
 
 def inputs_key(settings: object, paths: list[str | Path]) -> str:
-    """A fingerprint of a stage's settings and input files (size and modification time of every file under each
-    path): a checkpoint is resumed only under the same key."""
+    """A fingerprint of a stage's settings and input files (the path and content of every file under each path):
+    a checkpoint is resumed only under the same key, also in a copy of the tree whose files are newer."""
     hasher = hashlib.sha256(json.dumps(settings, sort_keys=True, default=str).encode())
     for path in map(Path, paths):
         files = sorted(p for p in path.rglob("*") if p.is_file()) if path.is_dir() else [path]
         for f in files:
-            stat = f.stat()
-            hasher.update(f"{f}:{stat.st_size}:{stat.st_mtime_ns}".encode())
+            hasher.update(f"{f}:{file_sha256(f)}".encode())
     return hasher.hexdigest()
