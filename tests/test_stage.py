@@ -3,6 +3,8 @@
 import os
 import shutil
 
+import pytest
+
 from rheo.stage import inputs_key
 
 SETTINGS = {"tolerance": 0.08, "grid": [12, 14]}
@@ -15,12 +17,10 @@ def _tree(root, masks: bytes = b"\x00\x01" * 64) -> None:
 
 
 def _key(root, settings=SETTINGS) -> str:
-    cwd = os.getcwd()
-    os.chdir(root)
-    try:
+    """The key as a stage computes it: paths relative to the run's folder."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.chdir(root)
         return inputs_key(settings, ["setups/a/setup.json", "setups"])
-    finally:
-        os.chdir(cwd)
 
 
 def test_key_survives_a_copy_with_new_times(tmp_path):
