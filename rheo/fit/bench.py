@@ -1,7 +1,9 @@
-"""Benchmark of the ViRheometry fits: the wall time of one joint evaluation of each material (its setups simulated
-side by side on two worker processes, as ``virheometry_fit`` does), at the material's fitted law, and what that
-makes of a whole fit (the evaluations its history holds); beside it the measured wall time of the fit itself where
-Snakemake's benchmark file has one (a fit that resumed from stored evaluations or shared its cores says so there).
+"""Benchmark of the ViRheometry fits: for each material, at its fitted law, the wall time of one joint evaluation
+(its setups simulated side by side on the worker processes, as ``virheometry_fit`` does) and of each setup's
+simulation alone, and what they make of a whole fit of the evaluations its history holds: between its simulations'
+time shared evenly by the workers (the flow index's searches run side by side and keep every worker busy) and one
+joint evaluation at a time. Beside it the measured wall time of the fit itself where Snakemake's benchmark file has
+one (a fit that resumed from stored evaluations or shared its cores says so there).
 
     python -m rheo.fit.bench --out results/bench/virheometry.json
 
@@ -16,6 +18,7 @@ import csv
 import json
 import platform
 import time
+from collections.abc import Callable
 from functools import partial
 from pathlib import Path
 
@@ -30,6 +33,20 @@ from rheo.io import write_json_atomic
 from rheo.physics.simulator import DEVICES, device_name, set_default_device
 
 
+def timed(run: Callable[[list], object], tasks: list) -> float:
+    """Wall seconds of ``run(tasks)``."""
+    start = time.perf_counter()
+    run(tasks)
+    return time.perf_counter() - start
+
+
+def projected_minutes(joint_s: float, alone_s: list[float], evaluations: int, workers: int) -> dict[str, float]:
+    """A fit's wall time in minutes: with its simulations shared evenly by ``workers`` processes, and one joint
+    evaluation at a time (the longest setup's simulation sets the pace, the other workers wait)."""
+    side_by_side = evaluations * sum(alone_s) / workers
+    return {"side_by_side": round(side_by_side / 60, 1), "one_at_a_time": round(joint_s * evaluations / 60, 1)}
+
+
 def measure_material(material: str, results: Path, benchmarks: Path, simulation: dict, workers: int) -> dict:
     folders = setup_folders(results / "setups", material)
     setups = setup_files([str(f / "setup.json") for f in folders], [str(f / "masks.npz") for f in folders])
@@ -38,13 +55,13 @@ def measure_material(material: str, results: Path, benchmarks: Path, simulation:
     x = np.log([params[key]["value"] for key in RESULT_KEYS.values()])
     with Evaluator(partial(comparisons, setups, simulation, Law()), workers=workers) as evaluator:
         evaluator.map([(name, x) for name in setups])  # compile, warm up
-        start = time.perf_counter()
-        evaluator.map([(name, x) for name in setups])
-        seconds = time.perf_counter() - start
+        joint = timed(evaluator.map, [(name, x) for name in setups])
+        alone = {name: timed(evaluator.map, [(name, x)]) for name in setups}
     with open(fit / "history.csv") as f:
         evaluations = sum(1 for _ in csv.DictReader(f))
-    record = {"setups": list(setups), "seconds_per_evaluation": round(seconds, 1), "fit_evaluations": evaluations,
-              "projected_fit_min": round(seconds * evaluations / 60, 1)}
+    record = {"setups": list(setups), "seconds_per_evaluation": round(joint, 1),
+              "seconds_per_setup": {name: round(t, 1) for name, t in alone.items()}, "fit_evaluations": evaluations,
+              "projected_fit_min": projected_minutes(joint, list(alone.values()), evaluations, workers)}
     measured = benchmarks / material / "fit.tsv"
     if measured.is_file():
         with open(measured) as f:
