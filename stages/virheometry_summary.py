@@ -1,6 +1,6 @@
 """virheometry_summary: every material's recovered law in one table (values, intervals, IoU, shear-rate band, error
 against its rheometer's curves where there are some, runtime), what its diagnosis found the Bingham model leaves
-out, and one plot of all flow curves, with a link to each material's page."""
+out (where the rule gives the diagnoses), and one plot of all flow curves, with a link to each material's page."""
 
 from pathlib import Path
 
@@ -31,9 +31,10 @@ def diagnosis_cells(diagnosis: dict) -> list[str]:
     return [diagnosis["verdict"], held, refit, f"{diagnosis['runtime_s'] / 60:.0f}"]
 
 
+diagnoses = list(getattr(smk.input, "diagnoses", []))
 rows, laws, links, diagnosis_links = [], {}, [], []
 for material, path, report, diagnosis in zip(smk.params.materials, smk.input.params, smk.input.reports,
-                                             smk.input.diagnoses, strict=True):
+                                             diagnoses or [None] * len(smk.params.materials), strict=True):
     fit = read_json(path)
     cells = [material]
     for key in KEYS:
@@ -48,23 +49,25 @@ for material, path, report, diagnosis in zip(smk.params.materials, smk.input.par
         log.info("%s against %s: RMS log10 error %.3f", material, name, error["fit"])
     cells += ["none" if band is None else f"{band[0]:.2g}-{band[1]:.2g}",
               ", ".join(f"{e['fit']:.3f}" for e in errors.values()) or "-",
-              "yes" if fit["within_tolerance"]["ridge"] else "no", f"{fit['runtime_s'] / 60:.1f}",
-              *diagnosis_cells(read_json(diagnosis))]
+              "yes" if fit["within_tolerance"]["ridge"] else "no", f"{fit['runtime_s'] / 60:.1f}"]
+    if diagnosis is not None:
+        cells += diagnosis_cells(read_json(diagnosis))
+        diagnosis_links.append(link_tag(str((Path(diagnosis).parent / "report.html").relative_to(output.parent)),
+                                        material))
     rows.append(cells)
     laws[material] = (law, None if band is None else tuple(band))
     links.append(link_tag(str(Path(report).relative_to(output.parent)), material))
-    diagnosis_links.append(link_tag(str((Path(diagnosis).parent / "report.html").relative_to(output.parent)), material))
-body = (table_tag(["material", "tau_y (Pa) [tolerance]", "K (Pa s^n) [tolerance]", "n [tolerance]",
-                   "mean IoU per setup", "shear rates reached (1/s)",
-                   "RMS log10(stress / rheometer's) over them, per curve", "ridge", "runtime (min)",
-                   "diagnosis: what the Bingham model leaves out",
-                   "held-out loss (px) between fitted frames; last frames, base fit / refit",
-                   "the refit's RMS log10 against the rheometer, per curve", "diagnosis (min)"],
-                  rows)
+header = ["material", "tau_y (Pa) [tolerance]", "K (Pa s^n) [tolerance]", "n [tolerance]", "mean IoU per setup",
+          "shear rates reached (1/s)", "RMS log10(stress / rheometer's) over them, per curve", "ridge", "runtime (min)"]
+if diagnoses:
+    header += ["diagnosis: what the Bingham model leaves out",
+               "held-out loss (px) between fitted frames; last frames, base fit / refit",
+               "the refit's RMS log10 against the rheometer, per curve", "diagnosis (min)"]
+body = (table_tag(header, rows)
         + "<p>* not determined by the recordings (tolerance interval wider than a factor 4, for n 1.5, or open: < or "
           ">, the materials within the tolerance go on past the fit's reach). Ridge: the evaluated "
           "materials within the tolerance spread over a factor 4 or more in some parameter.</p>"
         + figure_tag(summary_figure(laws), "recovered flow curves")
-        + f"<p>Each material's page (frames side by side, flow curve, camera checks): {', '.join(links)}; its "
-          f"diagnosis: {', '.join(diagnosis_links)}.</p>")
+        + f"<p>Each material's page (frames side by side, flow curve, camera checks): {', '.join(links)}"
+        + (f"; its diagnosis: {', '.join(diagnosis_links)}" if diagnoses else "") + ".</p>")
 write_text_atomic(output, page("Real dam breaks: twelve materials", body))

@@ -1,11 +1,12 @@
 """The real dam-break rules in a scratch copy of the workflow: one setup imported, one setup and a material fitted
 with a small search and the material's page written, the summary's plan over all twelve materials, and its table from
-twelve given fits."""
+twelve given fits, and the fits' page without the diagnoses."""
 
 import csv
 import glob
 import html
 import json
+import shutil
 
 from rheo.experiments.rheometer import log_rms_error, read_flow_curve
 
@@ -115,6 +116,17 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
         assert f"<a href='{material}/report.html'>{material}</a>" in page
         assert f"<a href='{material}/diagnosis/report.html'>{material}</a>" in page
     assert page.count("<img") == 1  # the flow curves of all materials in one plot
+    # the fits' page: the same table without the diagnoses, which it does not wait for
+    shutil.rmtree(workflow.root / "results/virheometry/Lotion/diagnosis")
+    run = workflow.run("results/virheometry/fits.html", "--allowed-rules", "virheometry_fits")
+    assert run.returncode == 0, run.stderr[-3000:]
+    fits = (workflow.root / "results/virheometry/fits.html").read_text()
+    def cells_of(row: str) -> list[str]:
+        return [c.split("</td>")[0] for c in row.split("<td>")[1:]]
+
+    assert [cells_of(r) for r in fits.split("<tr>")[2:]] == [cells_of(r)[:9] for r in rows]
+    assert "diagnosis" not in fits
+    assert fits.count("<img") == 1 and "<a href='Lotion/report.html'>Lotion</a>" in fits
 
 
 def test_the_convergence_study_writes_its_page_and_resumes_from_its_store(workflow):

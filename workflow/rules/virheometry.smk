@@ -120,12 +120,18 @@ def virheometry_materials() -> list[str]:
     return sorted(names)
 
 
+def summary_inputs() -> dict:
+    """Every material's joint fit and page, and the rheometer curves."""
+    materials = virheometry_materials()
+    return {"params": expand("results/virheometry/{material}/fit/params.json", material=materials),
+            "reports": expand("results/virheometry/{material}/report.html", material=materials),
+            "rheometer": [curve for m in materials for curve in config["virheometry"]["rheometer"].get(m, [])]}
+
+
 rule virheometry_summary:
     input:
-        params=expand("results/virheometry/{material}/fit/params.json", material=virheometry_materials()),
-        reports=expand("results/virheometry/{material}/report.html", material=virheometry_materials()),
+        **summary_inputs(),
         diagnoses=expand("results/virheometry/{material}/diagnosis/diagnosis.json", material=virheometry_materials()),
-        rheometer=[curve for m in virheometry_materials() for curve in config["virheometry"]["rheometer"].get(m, [])],
     output:
         report("results/virheometry/summary.html", caption="../report/summary.rst", category="Real dam breaks"),
     resources:
@@ -138,3 +144,13 @@ rule virheometry_summary:
         rheometer={m: config["virheometry"]["rheometer"].get(m, []) for m in virheometry_materials()},
     script:
         "../../stages/virheometry_summary.py"
+
+
+# the summary's table of fits alone, before the diagnoses have run
+use rule virheometry_summary as virheometry_fits with:
+    input:
+        **summary_inputs(),
+    output:
+        report("results/virheometry/fits.html", caption="../report/summary.rst", category="Real dam breaks"),
+    log:
+        "logs/virheometry/fits.log",
