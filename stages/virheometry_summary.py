@@ -58,7 +58,8 @@ for material, path, report, diagnosis in zip(smk.params.materials, smk.input.par
     laws[material] = (law, None if band is None else tuple(band))
     links.append(link_tag(str(Path(report).relative_to(output.parent)), material))
 header = ["material", "tau_y (Pa) [tolerance]", "K (Pa s^n) [tolerance]", "n [tolerance]", "mean IoU per setup",
-          "shear rates reached (1/s)", "RMS log10(stress / rheometer's) over them, per curve", "ridge", "runtime (min)"]
+          "shear rates reached (1/s)", "RMS log10(stress / rheometer's) over them, per curve", "ridge",
+          "runtime (min, on the machines that ran its evaluations)"]
 if diagnoses:
     header += ["diagnosis: what the Bingham model leaves out",
                "held-out loss (px) between fitted frames; last frames, base fit / refit",
