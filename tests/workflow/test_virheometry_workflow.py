@@ -67,6 +67,11 @@ def test_the_summary_plans_a_joint_fit_and_a_page_per_material_and_an_import_per
                       "virheometry_diagnose": 12, "virheometry_summary": 1}
 
 
+def table_cells(row: str) -> list[str]:
+    """The text of a table row's cells."""
+    return [html.unescape(c.split("</td>")[0]) for c in row.split("<td>")[1:]]
+
+
 def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
     materials = sorted({p.name.split("_")[1] for p in (workflow.root.parent / "shared/data/virheometry").glob("ref_*")})
     for i, material in enumerate(materials):
@@ -93,7 +98,7 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
     rows = page.split("<tr>")[2:]  # after the header
     assert len(materials) == 12 and len(rows) == 12
     for i, (material, row) in enumerate(zip(materials, rows, strict=True)):
-        cells = [html.unescape(c.split("</td>")[0]) for c in row.split("<td>")[1:]]
+        cells = table_cells(row)
         assert cells[0] == material
         for cell, value in zip(cells[1:3], (10.0, 1.0), strict=True):  # open ends marked, undetermined starred
             assert cell == (f"{value * (1 + i):.3g} [{value:.3g}, {'>' if i == 3 else ''}{value * (2 + i):.3g}]"
@@ -121,10 +126,7 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
     run = workflow.run("results/virheometry/fits.html", "--allowed-rules", "virheometry_fits")
     assert run.returncode == 0, run.stderr[-3000:]
     fits = (workflow.root / "results/virheometry/fits.html").read_text()
-    def cells_of(row: str) -> list[str]:
-        return [c.split("</td>")[0] for c in row.split("<td>")[1:]]
-
-    assert [cells_of(r) for r in fits.split("<tr>")[2:]] == [cells_of(r)[:9] for r in rows]
+    assert [table_cells(r) for r in fits.split("<tr>")[2:]] == [table_cells(r)[:9] for r in rows]
     assert "diagnosis" not in fits
     assert fits.count("<img") == 1 and "<a href='Lotion/report.html'>Lotion</a>" in fits
 
