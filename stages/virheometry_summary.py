@@ -1,6 +1,7 @@
 """virheometry_summary: every material's recovered law in one table (values, intervals, IoU, shear-rate band, error
 against its rheometer's curves where there are some, runtime), what its diagnosis found the Bingham model leaves
-out (where the rule gives the diagnoses), and one plot of all flow curves, with a link to each material's page."""
+out and what each candidate effect did to the law (where the rule gives the diagnoses), and one plot of all flow
+curves, with a link to each material's page."""
 
 from pathlib import Path
 
@@ -11,7 +12,7 @@ from rheo.fit.dam_break import RESULT_KEYS
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import interval_text
 from rheo.report.html import figure_tag, link_tag, page, table_tag
-from rheo.report.virheometry import rheometer_comparison, summary_figure
+from rheo.report.virheometry import candidates_table, rheometer_comparison, summary_figure
 from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -32,7 +33,7 @@ def diagnosis_cells(diagnosis: dict) -> list[str]:
 
 
 diagnoses = list(getattr(smk.input, "diagnoses", []))
-rows, laws, links, diagnosis_links = [], {}, [], []
+rows, laws, links, diagnosis_links, records, rheometer = [], {}, [], [], {}, {}
 for material, path, report, diagnosis in zip(smk.params.materials, smk.input.params, smk.input.reports,
                                              diagnoses or [None] * len(smk.params.materials), strict=True):
     fit = read_json(path)
@@ -43,7 +44,7 @@ for material, path, report, diagnosis in zip(smk.params.materials, smk.input.par
     cells.append(", ".join(f"{np.mean(s['silhouette_iou']):.3f}" for s in fit["setups"].values()))
     band = fit["shear_rate_band_per_s"]
     law = tuple(fit[k]["value"] for k in KEYS)
-    curves = [read_flow_curve(p) for p in smk.params.rheometer[material]]
+    curves = rheometer[material] = [read_flow_curve(p) for p in smk.params.rheometer[material]]
     errors = rheometer_comparison({"fit": law}, curves, band)[1] if curves and band is not None else {}
     for name, error in errors.items():
         log.info("%s against %s: RMS log10 error %.3f", material, name, error["fit"])
@@ -51,7 +52,8 @@ for material, path, report, diagnosis in zip(smk.params.materials, smk.input.par
               ", ".join(f"{e['fit']:.3f}" for e in errors.values()) or "-",
               "yes" if fit["within_tolerance"]["ridge"] else "no", f"{fit['runtime_s'] / 60:.1f}"]
     if diagnosis is not None:
-        cells += diagnosis_cells(read_json(diagnosis))
+        records[material] = read_json(diagnosis)
+        cells += diagnosis_cells(records[material])
         diagnosis_links.append(link_tag(str((Path(diagnosis).parent / "report.html").relative_to(output.parent)),
                                         material))
     rows.append(cells)
@@ -64,11 +66,17 @@ if diagnoses:
     header += ["diagnosis: what the Bingham model leaves out",
                "held-out loss (px) between fitted frames; last frames, base fit / refit",
                "the refit's RMS log10 against the rheometer, per curve", "diagnosis (min)"]
+candidates_section = "" if not records else (
+    "<h2>What each candidate effect did</h2><p>Each cell: the change of the information criterion from the base fit "
+    f"(an effect is named where it falls by more than {next(iter(records.values()))['evidence']:g}), the refit's "
+    "flow index and, where there are rheometer curves, its largest RMS log10 error against them.</p>"
+    + candidates_table(records, rheometer))
 body = (table_tag(header, rows)
         + "<p>* not determined by the recordings (tolerance interval wider than a factor 4, for n 1.5, or open: < or "
           ">, the materials within the tolerance go on past the fit's reach). Ridge: the evaluated "
           "materials within the tolerance spread over a factor 4 or more in some parameter.</p>"
         + figure_tag(summary_figure(laws), "recovered flow curves")
+        + candidates_section
         + f"<p>Each material's page (frames side by side, flow curve, camera checks): {', '.join(links)}"
         + (f"; its diagnosis: {', '.join(diagnosis_links)}" if diagnoses else "") + ".</p>")
 write_text_atomic(output, page("Real dam breaks: twelve materials", body))

@@ -93,6 +93,32 @@ def rheometer_comparison(laws: dict[str, tuple[float, float, float]], curves: li
     return table_tag(header, rows), errors
 
 
+def candidates_table(diagnoses: dict[str, dict], curves: dict[str, list[FlowCurve]]) -> str:
+    """Per material (name: diagnosis.json's record) what each candidate effect's refit did: the change of the
+    information criterion from the base fit, the refit's flow index and, where the material has rheometer
+    ``curves``, its largest RMS log10 error against them over the diagnosis' shear-rate band; "-" where the
+    candidate was not tried (not applicable to the setups)."""
+    names = list(dict.fromkeys(c["effect"] for record in diagnoses.values() for c in record["candidates"]))
+
+    def law_text(fit: dict, material: str) -> str:
+        values = fit["values"]
+        text = f"n {values['n']:.2f}"
+        band = diagnoses[material].get("flow_curve_rms_log10", {}).get("band_per_s")
+        if curves.get(material) and band is not None:
+            law = (values["tau_y_Pa"], values["K_Pa_s_n"], values["n"])
+            errors = rheometer_comparison({"law": law}, curves[material], band)[1]
+            text += f", RMS {max(e['law'] for e in errors.values()):.3f}"
+        return text
+
+    rows = []
+    for material, record in diagnoses.items():
+        tried = {c["effect"]: c for c in record["candidates"]}
+        rows.append([material, law_text(record["base"], material),
+                     *(f"{tried[n]['delta_criterion']:+.1f}; {law_text(tried[n], material)}" if n in tried else "-"
+                       for n in names)])
+    return table_tag(["material", "base fit", *(n.replace("_", " ") for n in names)], rows)
+
+
 def flow_figure(law: tuple[float, float, float], samples: np.ndarray, band: tuple[float, float] | None,
                 curves: list[FlowCurve]):
     """The recovered flow curve with its band (``flow_curve_figure``), the shear rates the flow reached and the

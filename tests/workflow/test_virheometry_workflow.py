@@ -67,6 +67,10 @@ def test_the_summary_plans_a_joint_fit_and_a_page_per_material_and_an_import_per
                       "virheometry_diagnose": 12, "virheometry_summary": 1}
 
 
+# the laws (tau_y, K, n) of the base fit and of each candidate's refit in the diagnoses the summary reads
+CANDIDATE_LAWS = {"base": (14.8, 0.79, 1.0), "floor_friction": (12.0, 1.1, 1.0), "shear_thinning": (7.0, 5.3, 0.53)}
+
+
 def table_cells(row: str) -> list[str]:
     """The text of a table row's cells."""
     return [html.unescape(c.split("</td>")[0]) for c in row.split("<td>")[1:]]
@@ -89,13 +93,19 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
         (fit_dir.parent / "diagnosis").mkdir()
         refit = {"refit": 0.03} if i == 0 else {}
         (fit_dir.parent / "diagnosis/diagnosis.json").write_text(json.dumps({
-            "verdict": f"verdict {i}", "runtime_s": 600.0 * (i + 1),
+            "verdict": f"verdict {i}", "runtime_s": 600.0 * (i + 1), "evidence": 6.0,
             "loss_before_after_px": {"held_out": [0.02, 0.01 if i == 0 else 0.02], "forecast": [0.04, 0.04]},
-            "flow_curve_rms_log10": {"by_curve": {"a": {"base fit": 0.1, **refit}, "b": {"base fit": 0.2, **refit}}}}))
+            "flow_curve_rms_log10": {"band_per_s": [0.5, 20.0],
+                                     "by_curve": {"a": {"base fit": 0.1, **refit}, "b": {"base fit": 0.2, **refit}}},
+            "base": {"values": dict(zip(("tau_y_Pa", "K_Pa_s_n", "n"), CANDIDATE_LAWS["base"], strict=True))},
+            "candidates": [{"effect": effect, "delta_criterion": change,
+                            "values": dict(zip(("tau_y_Pa", "K_Pa_s_n", "n"), CANDIDATE_LAWS[effect], strict=True))}
+                           for effect, change in ((("floor_friction", -8.0),) if i % 2 == 0 else ())
+                           + (("shear_thinning", 1.5),)]}))
     run = workflow.run("results/virheometry/summary.html", "--allowed-rules", "virheometry_summary")
     assert run.returncode == 0, run.stderr[-3000:]
     page = (workflow.root / "results/virheometry/summary.html").read_text()
-    rows = page.split("<tr>")[2:]  # after the header
+    rows = page.split("</table>")[0].split("<tr>")[2:]  # the first table's, after the header
     assert len(materials) == 12 and len(rows) == 12
     for i, (material, row) in enumerate(zip(materials, rows, strict=True)):
         cells = table_cells(row)
@@ -121,6 +131,21 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
         assert f"<a href='{material}/report.html'>{material}</a>" in page
         assert f"<a href='{material}/diagnosis/report.html'>{material}</a>" in page
     assert page.count("<img") == 1  # the flow curves of all materials in one plot
+    # what each candidate did: the change of criterion, the refit's n and, for Lotion, its worst rheometer error
+    candidates = page.split("What each candidate effect did")[1].split("</table>")[0].split("<tr>")
+    assert table_cells(candidates[1].replace("<th>", "<td>").replace("</th>", "</td>")) == [
+        "material", "base fit", "floor friction", "shear thinning"]
+    for i, (material, row) in enumerate(zip(materials, candidates[2:], strict=True)):
+        def law_text(effect: str, material: str = material) -> str:
+            curves = [read_flow_curve(p) for p in sorted(glob.glob(
+                str(workflow.root.parent / f"shared/data/rheometer/{material}_*.csv")))]
+            worst = max((log_rms_error(*CANDIDATE_LAWS[effect], c.within((0.5, 20.0))) for c in curves), default=None)
+            return f"n {CANDIDATE_LAWS[effect][2]:.2f}" + ("" if worst is None else f", RMS {worst:.3f}")
+
+        assert table_cells(row) == [material, law_text("base"),
+                                    f"-8.0; {law_text('floor_friction')}" if i % 2 == 0 else "-",
+                                    f"+1.5; {law_text('shear_thinning')}"]
+    assert "RMS" in candidates[2 + materials.index("Lotion")]
     # the fits' page: the same table without the diagnoses, which it does not wait for
     shutil.rmtree(workflow.root / "results/virheometry/Lotion/diagnosis")
     run = workflow.run("results/virheometry/fits.html", "--allowed-rules", "virheometry_fits")
