@@ -10,7 +10,7 @@ from tqdm.auto import tqdm
 
 from rheo.diagnose.dam_break import diagnose
 from rheo.experiments.rheometer import read_flow_curve
-from rheo.fit.dam_break import RESULT_KEYS, setup_files, shear_rate_band
+from rheo.fit.dam_break import RESULT_KEYS, setup_files
 from rheo.fit.search import EvaluationLog
 from rheo.io import read_json, write_json_atomic, write_text_atomic
 from rheo.report.diagnosis import maps_figure, section
@@ -50,7 +50,7 @@ for name, words in ((n, m["words"]) for n, m in record["mismatch"].items()):
 
 extra = ""
 curves = [read_flow_curve(p) for p in getattr(smk.input, "rheometer", [])]
-band = shear_rate_band(list(result.before.values()))
+band = result.band
 if curves and band is not None:
     laws = {label: tuple(result.values(refit)[k] for k in RESULT_KEYS.values())
             for label, refit in (("base fit", result.base), ("refit", result.chosen)) if refit is not None}

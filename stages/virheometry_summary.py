@@ -65,7 +65,8 @@ header = ["material", "tau_y (Pa) [tolerance]", "K (Pa s^n) [tolerance]", "n [to
 if diagnoses:
     header += ["diagnosis: what the Bingham model leaves out",
                "held-out loss (px) between fitted frames; last frames, base fit / refit",
-               "the refit's RMS log10 against the rheometer, per curve", "diagnosis (min)"]
+               "the refit's RMS log10 against the rheometer, per curve",
+               "diagnosis (min, on the machines that ran its evaluations)"]
 candidates_section = "" if not records else (
     "<h2>What each candidate effect did</h2><p>Each cell: the change of the information criterion from the base fit "
     f"(an effect is named where it falls by more than {next(iter(records.values()))['evidence']:g}), the refit's "

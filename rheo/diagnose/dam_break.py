@@ -61,6 +61,16 @@ def summary(results: list[Comparison]) -> dict:
             "distances": [float(d) for r in results for d in r.fitted_distances]}
 
 
+def stored_base(log: EvaluationLog, x_base: np.ndarray, before: list[Comparison]) -> tuple[dict, list[float] | None]:
+    """The base fit's record in ``log`` (stored there from its comparisons ``before`` if new) and the shear-rate band
+    of its flow, stored with it: the refits' points depend on that band, and a base fit simulated again on another
+    machine (or a GPU, whose sums are not reproducible bit for bit) gives a slightly different one, which would send
+    a resumed diagnosis through new points rather than its stored ones."""
+    log.evaluate_many(lambda _: [{**summary(before), "shear_rate_band": shear_rate_band(before)}], [x_base], "base")
+    record = log.record("base", x_base)
+    return record, record.get("shear_rate_band", shear_rate_band(before))
+
+
 def open_drag_words(rates: Sequence[float]) -> str:
     """Where and when the open drag acts, in words: its terms of at least half the largest rate (1/s)."""
     largest = float(np.max(np.abs(rates)))
@@ -78,7 +88,8 @@ def open_drag_words(rates: Sequence[float]) -> str:
 class Diagnosis:
     """The base fit, every candidate's short refit, the chosen effect's longer refit (None: no candidate explains the
     mismatch), the comparisons before and after by setup, where the base fit's mismatch lies (and the chosen
-    refit's, ``remains``), and the open drag's refit where no candidate is chosen (None if not fitted)."""
+    refit's, ``remains``), the open drag's refit where no candidate is chosen (None if not fitted), and the shear
+    rates the base fit's flow reaches."""
 
     law: Law
     base: Refit
@@ -90,6 +101,7 @@ class Diagnosis:
     evidence: float
     open: Refit | None = None
     remains: dict[str, Location] | None = None
+    band: list[float] | None = None  # the shear rates (1/s) the base fit's flow reaches, as stored with it
 
     def values(self, refit: Refit) -> dict[str, float]:
         """The law and the effect of a refit (a candidate's or the open drag's), in their units."""
@@ -218,10 +230,9 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
 
         # the base fit, simulated once: its comparisons (silhouettes, shear rates) and its stored record
         before = dict(zip(setups, evaluator.map([(f"base|{s}", x_base) for s in setups]), strict=True))
-        on_evaluation("base", x_base, log.evaluate_many(lambda _: [summary(list(before.values()))], [x_base],
-                                                        "base")[0])
-        base = Refit.of("base", log.record("base", x_base))
-        band = shear_rate_band(list(before.values()))
+        record, band = stored_base(log, x_base, list(before.values()))
+        on_evaluation("base", x_base, record["loss"])
+        base = Refit.of("base", record)
         split_step = (settings["stress_step"], settings["share_step"])
         found = refits(candidates, lambda c: profile_refit(c, evaluate(c.name), log.best, x_base, law_box,
                                                            split_step, settings["rung_evaluations"], band,
@@ -266,4 +277,4 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
                              [str(k + 1) for k in range(len(records[name].masks))]) for name, c in comparisons.items()}
 
     return Diagnosis(law, base, found, chosen, before, after, located(before), settings["evidence"], opened,
-                     None if chosen is None else located(after))
+                     None if chosen is None else located(after), band)
