@@ -66,9 +66,10 @@ def stored_base(log: EvaluationLog, x_base: np.ndarray, before: list[Comparison]
     of its flow, stored with it: the refits' points depend on that band, and a base fit simulated again on another
     machine (or a GPU, whose sums are not reproducible bit for bit) gives a slightly different one, which would send
     a resumed diagnosis through new points rather than its stored ones."""
-    log.evaluate_many(lambda _: [{**summary(before), "shear_rate_band": shear_rate_band(before)}], [x_base], "base")
+    band = shear_rate_band(before)
+    log.evaluate_many(lambda _: [{**summary(before), "shear_rate_band": band}], [x_base], "base")
     record = log.record("base", x_base)
-    return record, record.get("shear_rate_band", shear_rate_band(before))
+    return record, record.get("shear_rate_band", band)
 
 
 def open_drag_words(rates: Sequence[float]) -> str:

@@ -12,6 +12,7 @@ import numpy as np
 
 from rheo.experiments.rheometer import FlowCurve, log_rms_error
 from rheo.experiments.virheometry import Setup
+from rheo.fit.dam_break import RESULT_KEYS
 from rheo.report.fit import flow_curve_figure
 from rheo.report.html import table_tag
 
@@ -101,11 +102,10 @@ def candidates_table(diagnoses: dict[str, dict], curves: dict[str, list[FlowCurv
     names = list(dict.fromkeys(c["effect"] for record in diagnoses.values() for c in record["candidates"]))
 
     def law_text(fit: dict, material: str) -> str:
-        values = fit["values"]
-        text = f"n {values['n']:.2f}"
+        law = tuple(fit["values"][key] for key in RESULT_KEYS.values())
+        text = f"n {law[2]:.2f}"
         band = diagnoses[material].get("flow_curve_rms_log10", {}).get("band_per_s")
         if curves.get(material) and band is not None:
-            law = (values["tau_y_Pa"], values["K_Pa_s_n"], values["n"])
             errors = rheometer_comparison({"law": law}, curves[material], band)[1]
             text += f", RMS {max(e['law'] for e in errors.values()):.3f}"
         return text
