@@ -52,13 +52,15 @@ extra = ""
 curves = [read_flow_curve(p) for p in getattr(smk.input, "rheometer", [])]
 band = result.band
 if curves and band is not None:
+    refits = {"base fit": result.base, **{refit.name: refit for refit in result.candidates}, "open drag": result.open}
     laws = {label: tuple(result.values(refit)[k] for k in RESULT_KEYS.values())
-            for label, refit in (("base fit", result.base), ("refit", result.chosen)) if refit is not None}
+            for label, refit in refits.items() if refit is not None}
     table, errors = rheometer_comparison(laws, curves, band)
     for name, error in errors.items():
         log.info("%s: RMS log10 error %s over %.3g-%.3g 1/s", name, error, *band)
     record["flow_curve_rms_log10"] = {"band_per_s": band, "by_curve": errors}
-    extra = f"<h3>Flow curve against the rheometer</h3>{table}"
+    extra = (f"<h3>Flow curve against the rheometer</h3><p>Every refit's law over the shear rates the base fit's "
+             f"flow reaches ({band[0]:.3g}-{band[1]:.3g} 1/s).</p>{table}")
 
 frames = {name: (np.load(files[1])["masks"], result.before[name].silhouettes,
                  None if result.chosen is None else result.after[name].silhouettes, result.before[name].fitted)

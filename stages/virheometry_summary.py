@@ -28,7 +28,7 @@ def diagnosis_cells(diagnosis: dict) -> list[str]:
     held = "; ".join("-" if before is None else f"{before:.3g}" if after == before else f"{before:.3g} / {after:.3g}"
                      for before, after in (losses["held_out"], losses["forecast"]))
     by_curve = diagnosis.get("flow_curve_rms_log10", {}).get("by_curve", {})
-    refit = ", ".join(f"{e['refit']:.3f}" for e in by_curve.values() if "refit" in e) or "-"
+    refit = ", ".join(f"{e[diagnosis['chosen']]:.3f}" for e in by_curve.values() if diagnosis["chosen"] in e) or "-"
     return [diagnosis["verdict"], held, refit, f"{diagnosis['runtime_s'] / 60:.0f}"]
 
 

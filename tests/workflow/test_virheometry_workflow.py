@@ -91,9 +91,10 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
             "runtime_s": 60.0 * (i + 1)}))
         (fit_dir.parent / "report.html").write_text(f"<html>{material}</html>")
         (fit_dir.parent / "diagnosis").mkdir()
-        refit = {"refit": 0.03} if i == 0 else {}
+        refit = {"floor_friction": 0.03} if i == 0 else {}  # the chosen candidate's, by its name
         (fit_dir.parent / "diagnosis/diagnosis.json").write_text(json.dumps({
-            "verdict": f"verdict {i}", "runtime_s": 600.0 * (i + 1), "evidence": 6.0,
+            "verdict": f"verdict {i}", "chosen": "floor_friction" if i == 0 else None, "runtime_s": 600.0 * (i + 1),
+            "evidence": 6.0,
             "loss_before_after_px": {"held_out": [0.02, 0.01 if i == 0 else 0.02], "forecast": [0.04, 0.04]},
             "flow_curve_rms_log10": {"band_per_s": [0.5, 20.0],
                                      "by_curve": {"a": {"base fit": 0.1, **refit}, "b": {"base fit": 0.2, **refit}}},
