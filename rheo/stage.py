@@ -13,7 +13,7 @@ from pathlib import Path
 
 import rheo
 from rheo.io import file_sha256
-from rheo.physics.simulator import set_default_device
+from rheo.physics.device import set_default_device
 
 
 def setup_logging(log_file: str | Path | None) -> logging.Logger:

@@ -30,7 +30,7 @@ from rheo.experiments.virheometry import setup_folders
 from rheo.fit.dam_break import RESULT_KEYS, comparisons, setup_files
 from rheo.fit.parallel import Evaluator
 from rheo.io import write_json_atomic
-from rheo.physics.simulator import DEVICES, device_name, set_default_device
+from rheo.physics.device import DEVICES, device_name, set_default_device
 
 
 def timed(run: Callable[[list], object], tasks: list) -> float:

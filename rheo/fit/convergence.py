@@ -44,7 +44,7 @@ from rheo.experiments.virheometry import Setup, read_setup, setup_folders
 from rheo.fit.dam_break import OFFSET_STEP, DamBreakTarget, target
 from rheo.fit.parallel import Evaluator
 from rheo.io import write_json_atomic
-from rheo.physics.simulator import DEVICES, device_name, set_default_device
+from rheo.physics.device import DEVICES, device_name, set_default_device
 
 logger = logging.getLogger(__name__)
 

@@ -21,7 +21,7 @@ import numpy as np
 import torch
 from threadpoolctl import threadpool_limits
 
-from rheo.physics.simulator import resolve_device
+from rheo.physics.device import resolve_device
 
 logger = logging.getLogger(__name__)
 

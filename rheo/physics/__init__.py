@@ -1,20 +1,21 @@
-"""Differentiable material point method: materials, boundaries, kernels and rollouts."""
+"""Differentiable material point method: materials, boundaries, kernels and rollouts. The names below load their
+module (and torch and Warp with it) when first used, so that ``rheo.physics.device`` loads alone."""
 
-from rheo.physics.boundaries import Box, Collider, Cup, Floor, dam_break_gate, lifted_cup
-from rheo.physics.materials import (
-    HerschelBulkley,
-    Material,
-    MaterialError,
-    NeoHookean,
-    NewtonianFluid,
-    Plasticine,
-    make_material,
-)
-from rheo.physics.optional import OptionalPhysics
-from rheo.physics.simulator import SimulationError, SimulationUnstable, Simulator, Trajectory
+from importlib import import_module
 
-__all__ = [
-    "Box", "Collider", "Cup", "Floor", "HerschelBulkley", "Material", "MaterialError", "NeoHookean",
-    "NewtonianFluid", "OptionalPhysics", "Plasticine", "SimulationError", "SimulationUnstable", "Simulator",
-    "Trajectory", "dam_break_gate", "lifted_cup", "make_material",
-]
+_MODULES = {
+    "rheo.physics.boundaries": ("Box", "Collider", "Cup", "Floor", "dam_break_gate", "lifted_cup"),
+    "rheo.physics.materials": ("HerschelBulkley", "Material", "MaterialError", "NeoHookean", "NewtonianFluid",
+                               "Plasticine", "make_material"),
+    "rheo.physics.optional": ("OptionalPhysics",),
+    "rheo.physics.device": ("SimulationError",),
+    "rheo.physics.simulator": ("SimulationUnstable", "Simulator", "Trajectory"),
+}
+_HOME = {name: module for module, names in _MODULES.items() for name in names}
+__all__ = sorted(_HOME)
+
+
+def __getattr__(name: str):
+    if name not in _HOME:
+        raise AttributeError(f"module 'rheo.physics' has no attribute {name!r}")
+    return getattr(import_module(_HOME[name]), name)

@@ -26,7 +26,7 @@ import torch
 from rheo.geometry.sampling import cylinder
 from rheo.io import write_json_atomic
 from rheo.physics import Floor, HerschelBulkley, Simulator
-from rheo.physics.simulator import DEVICES, device_name, set_default_device
+from rheo.physics.device import DEVICES, device_name, set_default_device
 
 MATERIAL = HerschelBulkley.from_pacnerf(sigma_y=1000.0, eta=10.0, mu=1.0e4, lam=1.0e4)
 DT = 1e-3

@@ -24,6 +24,7 @@ from tqdm.auto import tqdm
 
 from rheo.physics import kernels
 from rheo.physics.boundaries import Collider, pack
+from rheo.physics.device import SimulationError, resolve_device
 from rheo.physics.materials import Material, MaterialError
 from rheo.physics.optional import OptionalPhysics
 
@@ -36,8 +37,6 @@ CAPILLARY_STRESS_TIME, CAPILLARY_STRESS_LOW = 3, 9
 CAPILLARY_FORCE_LOW = 3
 # the default step: this share of the time a wave (elastic, plus the fastest flow) takes to cross a cell
 DEFAULT_CFL = 0.4
-DEVICES = ("auto", "cpu", "cuda")
-_default_device = "cpu"
 
 
 def time_step(frame_dt: float, dx: float, material: Material, max_speed: float, cfl: float = DEFAULT_CFL,
@@ -50,36 +49,6 @@ def time_step(frame_dt: float, dx: float, material: Material, max_speed: float, 
         dt_max = min(dt_max, math.sqrt(material.density * dx**3 / (2 * math.pi * surface_tension)))
     substeps = max(1, math.ceil(frame_dt / dt_max - 1e-9))
     return frame_dt / substeps, substeps
-
-
-def _checked_device(name: str) -> str:
-    if name not in DEVICES:
-        raise SimulationError(f"simulation device {name!r} must be one of {', '.join(DEVICES)}")
-    return name
-
-
-def set_default_device(name: str) -> None:
-    """The device of simulators built without one: "cpu", "cuda" (the first GPU) or "auto" (CUDA when Warp sees a
-    GPU, else the CPU); resolved when a simulator is built."""
-    global _default_device
-    _default_device = _checked_device(name)
-
-
-def resolve_device(name: str | None = None) -> str:
-    """Warp's name of the device ``name`` (the default device if None) stands for: "cpu" or "cuda:0"."""
-    name = _checked_device(_default_device if name is None else name)
-    wp.init()
-    gpus = wp.get_cuda_device_count()
-    if name == "cuda" and gpus == 0:
-        raise SimulationError("simulation.device is cuda, but Warp sees no CUDA GPU on this machine (set it to auto "
-                              "or cpu)")
-    return "cuda:0" if name == "cuda" or (name == "auto" and gpus > 0) else "cpu"
-
-
-def device_name(name: str | None = None) -> str:
-    """The device ``name`` resolves to, for a benchmark's record: "cpu", or "cuda:0 (<GPU model>)"."""
-    resolved = resolve_device(name)
-    return resolved if resolved == "cpu" else f"{resolved} ({wp.get_device(resolved).name})"
 
 
 def _host(arr: wp.array) -> torch.Tensor:
@@ -97,10 +66,6 @@ def particle_bounds(domain_origin, domain_size: float, dx: float) -> tuple[np.nd
     margin = kernels.BOUND * dx
     lo = np.asarray(domain_origin, dtype=float) + margin
     return lo, lo + domain_size - 2 * margin
-
-
-class SimulationError(RuntimeError):
-    """A rollout that cannot be run as asked."""
 
 
 class SimulationUnstable(SimulationError):

@@ -9,7 +9,7 @@ import warp as wp
 from rheo.fit.parallel import Evaluator
 from rheo.geometry.sampling import cylinder
 from rheo.physics import Floor, HerschelBulkley, OptionalPhysics, SimulationError, Simulator
-from rheo.physics.simulator import resolve_device, set_default_device
+from rheo.physics.device import resolve_device, set_default_device
 
 wp.init()
 HAS_CUDA = wp.get_cuda_device_count() > 0
