@@ -1,6 +1,6 @@
 """diagnose: what a dam-break fit leaves out. The base fit's mismatch located in time and space, every candidate
 effect tried in a short refit and ranked by the information criterion, the winner refitted, the gain measured on
-the frames held out of every fit; with rheometer curves, the flow-curve error before and after."""
+the frames held out of every fit; with rheometer curves, the flow-curve error of the base fit and of every refit."""
 
 import time
 from pathlib import Path
