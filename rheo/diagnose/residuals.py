@@ -90,8 +90,9 @@ class Location:
                "inside the container": ("the simulation leaves more material in the container",
                                         "the simulation drains the container more")}[where]
         direction = way[0] if extra >= missing else way[1]
-        return (f"The mismatch is largest in frames {frames} ({when}); {100 * shares[where]:.0f} % of it at the "
-                f"{where}, where {direction} ({100 * max(extra, missing) / max(extra + missing, 1):.0f} % "
+        place = where if where == "inside the container" else f"at the {where}"
+        return (f"The mismatch is largest in frames {frames} ({when}); {100 * shares[where]:.0f} % of it {place}, "
+                f"where {direction} ({100 * max(extra, missing) / max(extra + missing, 1):.0f} % "
                 f"{'extra' if extra >= missing else 'missing'} material).")
 
 

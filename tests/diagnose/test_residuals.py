@@ -37,6 +37,20 @@ def test_a_surface_that_stands_too_high_throughout(channel):
     assert locate(setup, observed, observed, ["1"] * 6).words() == "The simulation matches every frame."
 
 
+def test_material_left_in_the_container_is_said_to_lie_inside_it(channel):
+    setup = channel((0.0, 0.05, 0.0, 0.04), frames=4)
+    container = container_silhouette(setup)
+    rows = np.nonzero(container)[0]
+    drained = container & (np.arange(container.shape[0])[:, None] > (rows.min() + rows.max()) // 2)
+    observed = [_outflow(setup, 30) & ~(container & ~drained) for _ in range(4)]
+    simulated = [_outflow(setup, 30) for _ in range(4)]
+    location = locate(setup, simulated, observed, [str(k + 1) for k in range(4)])
+    assert max(location.by_region(), key=location.by_region().get) == "inside the container"
+    assert "% of it inside the container, where the simulation leaves more material in the container" in \
+        location.words()
+    assert "% of it at the " not in location.words()
+
+
 def test_the_regions_split_the_image(channel):
     setup = channel((0.0, 0.05, 0.0, 0.04))
     regions = region_masks(setup, [_outflow(setup, 40)])
