@@ -83,15 +83,16 @@ class Location:
         where = max(shares, key=shares.get)
         k = REGIONS.index(where)
         extra, missing = self.extra[:, k].sum(), self.missing[:, k].sum()
-        place, if_extra, if_missing = {"front": ("at the front", "the simulated front runs ahead of the recording",
-                                 "the simulated front lags behind"),
-                       "contact line": ("at the contact line", "the simulation spreads more along the floor",
-                                        "the recording spreads more along the floor"),
-                       "free surface": ("at the free surface", "the simulated surface stands higher",
-                                        "the simulated surface lies lower"),
-                       "inside the container": ("inside the container",
-                                                "the simulation leaves more material in the container",
-                                                "the simulation drains the container more")}[where]
+        wording = {"front": ("at the front", "the simulated front runs ahead of the recording",
+                             "the simulated front lags behind"),
+                   "contact line": ("at the contact line", "the simulation spreads more along the floor",
+                                    "the recording spreads more along the floor"),
+                   "free surface": ("at the free surface", "the simulated surface stands higher",
+                                    "the simulated surface lies lower"),
+                   "inside the container": ("inside the container",
+                                            "the simulation leaves more material in the container",
+                                            "the simulation drains the container more")}
+        place, if_extra, if_missing = wording[where]
         direction = if_extra if extra >= missing else if_missing
         return (f"The mismatch is largest in frames {frames} ({when}); {100 * shares[where]:.0f} % of it {place}, "
                 f"where {direction} ({100 * max(extra, missing) / max(extra + missing, 1):.0f} % "
