@@ -1,5 +1,6 @@
 """Shared test settings (Warp's quiet start-up) and a synthetic dam-break channel."""
 
+import html
 from pathlib import Path
 
 import cv2
@@ -32,6 +33,11 @@ def channel_setup(footprint_rect: tuple[float, float, float, float], frames: int
     return Setup(folder=Path("ref_Test_2.0_2.5_1"), material="Test", index=1, height=HEIGHT, width=WIDTH,
                  depth=DEPTH, density=1000.0, walls=walls, camera=camera, masks=[mask.astype(bool)] * frames,
                  start_point=None)
+
+
+def table_cells(row: str) -> list[str]:
+    """The text of an HTML table row's cells."""
+    return [html.unescape(c.split("</td>")[0]) for c in row.split("<td>")[1:]]
 
 
 @pytest.fixture

@@ -1,13 +1,13 @@
 """The comparison of recovered laws with a material's rheometer curves: a row per law, a column per curve, the
 errors computed over the shear-rate band only."""
 
-import html
 from pathlib import Path
 
 import numpy as np
 
 from rheo.experiments.rheometer import read_flow_curve
 from rheo.report.virheometry import rheometer_comparison
+from tests.conftest import table_cells
 
 RHEOMETER = Path(__file__).resolve().parents[3] / "shared/data/rheometer"
 
@@ -20,7 +20,7 @@ def test_every_law_is_a_row_with_its_error_against_every_curve_over_the_band():
     rows = table.split("<tr>")[2:]
     assert len(curves) == 4 and len(rows) == len(laws)
     for (label, (tau_y, K, n)), row in zip(laws.items(), rows, strict=True):
-        cells = [html.unescape(c.split("</td>")[0]) for c in row.split("<td>")[1:]]
+        cells = table_cells(row)
         assert cells[:4] == [label, f"{tau_y:.3g}", f"{K:.3g}", f"{n:.3g}"]
         for curve, cell in zip(curves, cells[4:], strict=True):
             inside = (curve.shear_rate >= band[0]) & (curve.shear_rate <= band[1])

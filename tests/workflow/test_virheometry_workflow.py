@@ -4,11 +4,11 @@ twelve given fits, and the fits' page without the diagnoses."""
 
 import csv
 import glob
-import html
 import json
 import shutil
 
 from rheo.experiments.rheometer import log_rms_error, read_flow_curve
+from tests.conftest import table_cells
 
 
 def test_a_setup_is_imported_and_fitted(workflow):
@@ -69,11 +69,6 @@ def test_the_summary_plans_a_joint_fit_and_a_page_per_material_and_an_import_per
 
 # the laws (tau_y, K, n) of the base fit and of each candidate's refit in the diagnoses the summary reads
 CANDIDATE_LAWS = {"base": (14.8, 0.79, 1.0), "floor_friction": (12.0, 1.1, 1.0), "shear_thinning": (7.0, 5.3, 0.53)}
-
-
-def table_cells(row: str) -> list[str]:
-    """The text of a table row's cells."""
-    return [html.unescape(c.split("</td>")[0]) for c in row.split("<td>")[1:]]
 
 
 def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
