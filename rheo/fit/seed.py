@@ -22,6 +22,7 @@ from tqdm.auto import tqdm
 from rheo.fit.observations import Observations, sample_rays
 from rheo.render.field import WHITE, VoxelGrid, march
 from rheo.render.silhouette import SUPERSAMPLE, disc_kernel, disc_radius, iou, silhouette, subpixels
+from rheo.vision.cameras import Camera
 
 logger = logging.getLogger(__name__)
 
@@ -181,37 +182,51 @@ def grid_seed(occupied: np.ndarray, colour: torch.Tensor, grid: VoxelGrid) -> Se
                 colour.numpy().transpose(1, 2, 3, 0)[occupied], grid.spacing)
 
 
-class _ViewCoverage:
-    """One view's silhouette of particles at a grid's nodes as ``rheo.render.silhouette.silhouette`` draws it (discs
-    on a raster ``SUPERSAMPLE`` times finer, a pixel set where at least half its sub-pixels are covered), kept up to
-    date as single nodes are added or removed: how many discs cover each sub-pixel and how many covered sub-pixels
-    each pixel has."""
+class _Coverage:
+    """The views' silhouettes of particles at a grid's nodes as ``rheo.render.silhouette.silhouette`` draws them
+    (discs on a raster ``SUPERSAMPLE`` times finer, a pixel set where at least half its sub-pixels are covered), every
+    view's raster laid end to end in one, kept up to date as single nodes are added or removed: how many discs cover
+    each sub-pixel and how many covered sub-pixels each pixel has."""
 
-    def __init__(self, camera, mask: np.ndarray, centres: np.ndarray, occupied: np.ndarray, spacing: float) -> None:
+    def __init__(self, views: list[tuple[Camera, np.ndarray]], centres: np.ndarray, occupied: np.ndarray,
+                 spacing: float) -> None:
         s = SUPERSAMPLE
-        width = camera.width * s
-        uv, depth = camera.project(centres)
-        sub, seen = subpixels(camera, uv, depth)
-        kernel = disc_kernel(disc_radius(camera, spacing, depth[occupied & seen]))
-        dy, dx = np.nonzero(kernel)
-        rows = sub[:, 1, None] + dy - kernel.shape[0] // 2
-        columns = sub[:, 0, None] + dx - kernel.shape[1] // 2
-        inside = seen[:, None] & (rows >= 0) & (rows < camera.height * s) & (columns >= 0) & (columns < width)
-        # per node, the sub-pixels its disc covers (flat index, -1 where off the image) and their pixels
-        self.footprint = np.where(inside, rows * width + columns, -1)
-        self.pixel = np.where(inside, (rows // s) * camera.width + columns // s, -1)
-        self.mask = mask
-        self.discs = np.zeros(camera.height * s * width, np.int32)
-        np.add.at(self.discs, self.footprint[occupied][inside[occupied]], 1)
-        self.covered = (self.discs > 0).reshape(camera.height, s, camera.width, s).sum(axis=(1, 3)).ravel()
+        footprints, pixels, rasters = [], [], []
+        first_sub = first_pixel = 0
+        for camera, _ in views:
+            width = camera.width * s
+            uv, depth = camera.project(centres)
+            sub, seen = subpixels(camera, uv, depth)
+            kernel = disc_kernel(disc_radius(camera, spacing, depth[occupied & seen]))
+            dy, dx = np.nonzero(kernel)
+            rows = sub[:, 1, None] + dy - kernel.shape[0] // 2
+            columns = sub[:, 0, None] + dx - kernel.shape[1] // 2
+            inside = seen[:, None] & (rows >= 0) & (rows < camera.height * s) & (columns >= 0) & (columns < width)
+            footprints.append(np.where(inside, first_sub + rows * width + columns, -1))
+            pixels.append(np.where(inside, first_pixel + (rows // s) * camera.width + columns // s, -1))
+            rasters.append((first_sub, camera.height, camera.width))
+            first_sub += camera.height * s * width
+            first_pixel += camera.height * camera.width
+        # per node, the sub-pixels its discs cover (-1 where off the image) and their pixels, in the pixels' order
+        pixel = np.concatenate(pixels, axis=1)
+        order = np.argsort(pixel, axis=1, kind="stable")
+        self.footprint = np.take_along_axis(np.concatenate(footprints, axis=1), order, axis=1)
+        self.pixel = np.take_along_axis(pixel, order, axis=1)
+        self.mask = np.concatenate([mask.reshape(-1) for _, mask in views])
+        covers = self.footprint[occupied]
+        self.discs = np.bincount(covers[covers >= 0], minlength=first_sub).astype(np.int32)
+        self.covered = np.concatenate([
+            (self.discs[start:start + height * s * width * s] > 0).reshape(height, s, width, s).sum(axis=(1, 3)).ravel()
+            for start, height, width in rasters])
 
     def change(self, node: int, add: bool) -> tuple[int, np.ndarray, np.ndarray, np.ndarray]:
-        """What adding (removing) ``node`` does: the change in the number of pixels where the silhouette and the mask
-        disagree, and the sub-pixels, pixels and per-pixel counts that change."""
+        """What adding (removing) ``node`` does: the change in the number of pixels where the silhouettes and the
+        masks disagree, and the sub-pixels, pixels and per-pixel counts that change."""
         keep = self.footprint[node] >= 0
         footprint, pixel = self.footprint[node][keep], self.pixel[node][keep]
-        flips = self.discs[footprint] == (0 if add else 1)  # sub-pixels that become covered (uncovered)
-        pixels, counts = np.unique(pixel[flips], return_counts=True)
+        flipped = pixel[self.discs[footprint] == (0 if add else 1)]  # sub-pixels covered (uncovered), in order
+        starts = np.flatnonzero(np.concatenate(([True], flipped[1:] != flipped[:-1]))) if flipped.size else flipped
+        pixels, counts = flipped[starts], np.diff(starts, append=flipped.size)
         before = 2 * self.covered[pixels] >= SUPERSAMPLE**2
         after = 2 * (self.covered[pixels] + (counts if add else -counts)) >= SUPERSAMPLE**2
         wrong = int((after != self.mask[pixels]).sum() - (before != self.mask[pixels]).sum())
@@ -233,17 +248,16 @@ def carve(obs: Observations, grid: VoxelGrid, occupied: np.ndarray, frame: int =
     flat = occupied.reshape(-1)  # a view of it
     centres = grid.centres().reshape(-1, 3)
     above = centres[:, 1] > 0
-    views = [_ViewCoverage(v.camera, v.masks[frame].astype(bool), centres, flat, grid.spacing) for v in obs.views]
+    coverage = _Coverage([(v.camera, v.masks[frame].astype(bool)) for v in obs.views], centres, flat, grid.spacing)
     for done in range(1, passes + 1):
         grown = ndimage.binary_dilation(occupied) & ~occupied
         boundary = occupied & ~ndimage.binary_erosion(occupied, border_value=0)
         changed = 0
         for node in np.flatnonzero((grown | boundary).reshape(-1) & above):
             add = not flat[node]
-            changes = [view.change(node, add) for view in views]
-            if sum(c[0] for c in changes) < 0:
-                for view, (_, *change) in zip(views, changes, strict=True):
-                    view.apply(add, *change)
+            wrong, *change = coverage.change(node, add)
+            if wrong < 0:
+                coverage.apply(add, *change)
                 flat[node] = add
                 changed += 1
         logger.debug("carving pass %d: %d nodes changed", done, changed)
