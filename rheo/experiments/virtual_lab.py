@@ -98,15 +98,15 @@ def render_board_view(camera: Camera, board: LabBoard, pose: np.ndarray, rng: np
     """The board at ``pose`` (board-to-world) in front of a plain wall, anti-aliased by 3x supersampling."""
     fine = _supersampled(camera, 3)
     origin, dirs = fine.pixel_rays()
-    normal, point = pose[:3, 2], pose[:3, 3]
+    normal, point, axes = pose[:3, 2], pose[:3, 3], pose[:3, :2]
     denom = dirs @ normal
-    t = np.where(np.abs(denom) > 1e-9, ((point - origin) @ normal) / np.where(np.abs(denom) > 1e-9, denom, 1), -1)
-    local = (origin + t[..., None] * dirs - point) @ pose[:3, :3]
+    facing = np.abs(denom) > 1e-9
+    t = np.where(facing, ((point - origin) @ normal) / np.where(facing, denom, 1), -1)
+    local = (origin - point) @ axes + t[..., None] * (dirs @ axes)  # board coordinates of the ray's hit
     spec = FloorBoard(board.columns, board.rows, board.square)
-    color, inside = board_texture(local[..., 0], local[..., 1], spec)
-    image = np.where((inside & (t > 0))[..., None], color, 0.6)
-    image = _downsample((np.clip(image, 0, 1) * 255).astype(np.float32), camera)
-    return _uint8(image + rng.normal(0.0, 255 * noise, image.shape))
+    grey, inside = board_texture(local[..., 0], local[..., 1], spec)
+    image = _downsample((np.clip(np.where(inside & (t > 0), grey, 0.6), 0, 1) * 255).astype(np.float32), camera)
+    return _uint8(image[..., None] + rng.normal(0.0, 255 * noise, (*image.shape, 3)))
 
 
 def _write_png(path: Path, image: np.ndarray) -> None:

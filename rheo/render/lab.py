@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from scipy import ndimage
 
@@ -57,15 +58,15 @@ def _floor_texture(x: np.ndarray, z: np.ndarray) -> np.ndarray:
 
 
 def board_texture(x: np.ndarray, z: np.ndarray, board: FloorBoard) -> tuple[np.ndarray, np.ndarray]:
-    """Board colours and where the board (with a one-square white margin) covers the floor."""
+    """The board's grey (one value per point, black or white) and where the board (with a one-square white margin)
+    covers the floor."""
     u = (x - board.origin[0]) / board.square + 1.0  # squares from the board's outer corner
     v = (z - board.origin[1]) / board.square + 1.0
     nu, nv = board.columns + 1, board.rows + 1
     inside = (u >= -1) & (u < nu + 1) & (v >= -1) & (v < nv + 1)
     squares = (u >= 0) & (u < nu) & (v >= 0) & (v < nv)
     black = squares & ((np.floor(u) + np.floor(v)) % 2 == 0)
-    color = np.where(black[..., None], 0.05, 0.95) * np.ones(3)
-    return color, inside
+    return np.where(black, 0.05, 0.95), inside
 
 
 def _shadow(points: np.ndarray, radius: float, light: np.ndarray, x: np.ndarray, z: np.ndarray) -> np.ndarray:
@@ -112,8 +113,8 @@ def render(camera: Camera, points: np.ndarray | None = None, spacing: float | No
     x, z = np.where(on_floor, hit[..., 0], 0.0), np.where(on_floor, hit[..., 2], 0.0)
     floor = _floor_texture(x, z)
     if board is not None:
-        board_rgb, on_board = board_texture(x, z, board)
-        floor = np.where(on_board[..., None], board_rgb, floor)
+        board_grey, on_board = board_texture(x, z, board)
+        floor = np.where(on_board[..., None], board_grey[..., None], floor)
     shade = np.full(x.shape, 0.55 + 0.45 * light[1])
     if points is not None and len(points):
         shade = shade * _shadow(points, spacing, light, x, z)
@@ -140,8 +141,9 @@ def render(camera: Camera, points: np.ndarray | None = None, spacing: float | No
         spacing_px = float(np.median(radius_px)) / scene.splat_radius
         # the material, not its particles: slits narrower than two particle spacings closed
         gap = int(np.ceil(spacing_px))
-        disk = np.hypot(*np.mgrid[-gap:gap + 1, -gap:gap + 1]) <= gap
-        mask = ndimage.binary_closing(np.pad(covered, gap + 1), disk)[gap + 1:-gap - 1, gap + 1:-gap - 1] | covered
+        disk = (np.hypot(*np.mgrid[-gap:gap + 1, -gap:gap + 1]) <= gap).astype(np.uint8)
+        closed = cv2.morphologyEx(np.pad(covered, gap + 1).astype(np.uint8), cv2.MORPH_CLOSE, disk)
+        mask = closed[gap + 1:-gap - 1, gap + 1:-gap - 1].astype(bool) | covered
         # shaded per pixel from the smoothed surface, so that the particles' lattice does not show
         surface, normals = surface_normals(origin, dirs, camera.c2w[:3, 2], zbuffer, covered, smoothing=spacing_px)
         diffuse = np.clip(normals @ light, 0.0, 1.0)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -42,15 +43,11 @@ class Camera:
         return pixel, inside
 
     def pixel_rays(self) -> tuple[np.ndarray, np.ndarray]:
-        """World-space origin (3,) and unit directions (H, W, 3) through every pixel centre (distortion undone).
-        As in OpenCV, pixel (i, j) has its centre at (u, v) = (j, i)."""
-        u, v = np.meshgrid(np.arange(self.width, dtype=float), np.arange(self.height, dtype=float))
-        pixels = np.stack([u.ravel(), v.ravel()], axis=1).astype(np.float64)[:, None, :]
-        normalized = cv2.undistortPointsIter(pixels, self.K, self.dist, None, None,
-                                             (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10))
-        dirs = np.c_[normalized.reshape(-1, 2), np.ones(len(pixels))] @ self.c2w[:3, :3].T
-        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-        return self.c2w[:3, 3].copy(), dirs.reshape(self.height, self.width, 3)
+        """World-space origin (3,) and unit directions (H, W, 3) through every pixel centre (distortion undone), both
+        read-only (the last two cameras' rays are kept). As in OpenCV, pixel (i, j) has its centre at (u, v) = (j, i).
+        """
+        return _pixel_rays(self.width, self.height, *(np.asarray(a, np.float64).tobytes()
+                                                      for a in (self.K, np.ravel(self.dist), self.c2w)))
 
     def record(self) -> dict:
         return {"width": self.width, "height": self.height, "K": self.K.tolist(), "dist": self.dist.tolist(),
@@ -60,6 +57,20 @@ class Camera:
     def from_record(cls, rec: dict) -> Camera:
         return cls(rec["width"], rec["height"], np.asarray(rec["K"], float), np.asarray(rec["dist"], float),
                    np.asarray(rec["c2w"], float))
+
+
+@functools.lru_cache(maxsize=2)
+def _pixel_rays(width: int, height: int, K: bytes, dist: bytes, c2w: bytes) -> tuple[np.ndarray, np.ndarray]:
+    K_, dist_, c2w_ = np.frombuffer(K).reshape(3, 3), np.frombuffer(dist), np.frombuffer(c2w).reshape(4, 4)
+    u, v = np.meshgrid(np.arange(width, dtype=float), np.arange(height, dtype=float))
+    pixels = np.stack([u.ravel(), v.ravel()], axis=1)[:, None, :]
+    normalized = cv2.undistortPointsIter(pixels, K_, dist_, None, None,
+                                         (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 40, 1e-10))
+    dirs = np.c_[normalized.reshape(-1, 2), np.ones(len(pixels))] @ c2w_[:3, :3].T
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    origin, dirs = c2w_[:3, 3].copy(), dirs.reshape(height, width, 3)
+    origin.flags.writeable = dirs.flags.writeable = False
+    return origin, dirs
 
 
 def look_at(eye, target) -> np.ndarray:
