@@ -9,8 +9,8 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from rheo.diagnose.dam_break import diagnose
-from rheo.experiments.rheometer import read_flow_curve
-from rheo.fit.dam_break import RESULT_KEYS, setup_files
+from rheo.experiments.rheometer import RESULT_KEYS, read_flow_curve
+from rheo.fit.dam_break import setup_files
 from rheo.fit.search import EvaluationLog
 from rheo.io import read_json, write_json_atomic, write_text_atomic
 from rheo.report.diagnosis import maps_figure, section

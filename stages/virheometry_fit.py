@@ -19,9 +19,9 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from rheo.diagnose.candidates import Law
+from rheo.experiments.rheometer import RESULT_KEYS
 from rheo.fit.dam_break import (
     MOVING_RATE,
-    RESULT_KEYS,
     comparisons,
     flow_index_profile,
     setup_files,

@@ -6,8 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rheo.experiments.rheometer import read_flow_curve
-from rheo.fit.dam_break import RESULT_KEYS
+from rheo.experiments.rheometer import RESULT_KEYS, read_flow_curve
 from rheo.fit.uncertainty import Interval, log_draws, tolerance_level
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import headline, interval_text

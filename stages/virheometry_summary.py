@@ -7,8 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rheo.experiments.rheometer import read_flow_curve
-from rheo.fit.dam_break import RESULT_KEYS
+from rheo.experiments.rheometer import RESULT_KEYS, read_flow_curve
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import interval_text
 from rheo.report.html import figure_tag, link_tag, page, table_tag

@@ -58,6 +58,9 @@ def pooled(curves: list[FlowCurve], name: str = "pooled") -> FlowCurve:
                      float(np.mean([c.temperature for c in curves])))
 
 
+RESULT_KEYS = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}  # the law's parameters' keys in a fit's params.json
+
+
 def herschel_bulkley(rate: np.ndarray, tau_y: float, K: float, n: float) -> np.ndarray:
     return tau_y + K * np.asarray(rate) ** n
 

@@ -26,8 +26,9 @@ import numpy as np
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.diagnose.candidates import Law
+from rheo.experiments.rheometer import RESULT_KEYS
 from rheo.experiments.virheometry import setup_folders
-from rheo.fit.dam_break import RESULT_KEYS, comparisons, setup_files
+from rheo.fit.dam_break import comparisons, setup_files
 from rheo.fit.parallel import Evaluator
 from rheo.io import write_json_atomic
 from rheo.physics.device import DEVICES, device_name, set_default_device

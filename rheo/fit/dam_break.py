@@ -157,9 +157,6 @@ class DamBreakTarget:
                           overlap, outflow, rates[rates > MOVING_RATE], np.stack(chosen), self.fitted)
 
 
-RESULT_KEYS = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}  # their keys in params.json
-
-
 def shear_rate_band(results: list[Comparison]) -> list[float] | None:
     """The shear rates (1/s) the simulated flows reach: 5th-95th percentile of the moving particles' over the
     compared frames of every setup (None when nothing moved)."""

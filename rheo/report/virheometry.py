@@ -10,9 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from rheo.experiments.rheometer import FlowCurve, log_rms_error
+from rheo.experiments.rheometer import RESULT_KEYS, FlowCurve, log_rms_error
 from rheo.experiments.virheometry import Setup
-from rheo.fit.dam_break import RESULT_KEYS
 from rheo.report.fit import flow_curve_figure
 from rheo.report.html import table_tag
 
