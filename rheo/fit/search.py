@@ -31,7 +31,6 @@ from pathlib import Path
 
 import numpy as np
 from scipy.optimize import minimize
-from scipy.stats import qmc
 
 from rheo.fit.observations import Observations
 from rheo.fit.surface import describe_surface, refine
@@ -151,6 +150,8 @@ class EvaluationLog:
 
 def survey_points(centre: np.ndarray, half_width: float | np.ndarray, samples: int, seed: int = 0) -> np.ndarray:
     """``samples`` scrambled-Sobol points in the box centre +- half_width (log units), the centre first."""
+    from scipy.stats import qmc  # here: slow to import, and most stages survey nothing
+
     count = max(samples - 1, 0)
     unit = qmc.Sobol(len(centre), seed=seed).random_base2(max(int(np.ceil(np.log2(max(count, 1)))), 0))[:count]
     return np.r_[centre[None, :], centre + (2.0 * unit - 1.0) * half_width]
