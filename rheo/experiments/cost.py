@@ -7,6 +7,7 @@ import os
 from dataclasses import dataclass
 
 from rheo.config import ConfigError
+from rheo.geometry.shapes import analytic_volume
 
 # bytes per particle and per grid node of a forward simulation (two states of x, v, C, F and the eigen-decomposition;
 # mass, momentum and velocity per node), float32
@@ -47,11 +48,12 @@ class Cost:
 
 def proxy_volume(proxy: dict) -> float:
     """The starting shape's volume (m^3): analytic for a primitive, the mesh's own (or its box's) for a mesh."""
-    from rheo.geometry.proxy import from_config
-
-    mesh, volume = from_config(proxy)
+    volume = analytic_volume(proxy)
     if volume is not None:
         return volume
+    from rheo.geometry.proxy import from_config  # the mesh library: imported only for a mesh file
+
+    mesh, _ = from_config(proxy)
     return float(mesh.volume) if mesh.is_watertight else float(math.prod(mesh.extents))
 
 

@@ -202,8 +202,9 @@ class _Coverage:
             rows = sub[:, 1, None] + dy - kernel.shape[0] // 2
             columns = sub[:, 0, None] + dx - kernel.shape[1] // 2
             inside = seen[:, None] & (rows >= 0) & (rows < camera.height * s) & (columns >= 0) & (columns < width)
-            footprints.append(np.where(inside, first_sub + rows * width + columns, -1))
-            pixels.append(np.where(inside, first_pixel + (rows // s) * camera.width + columns // s, -1))
+            footprints.append(np.where(inside, first_sub + rows * width + columns, -1).astype(np.int32))
+            pixels.append(np.where(inside, first_pixel + (rows // s) * camera.width + columns // s, -1)
+                          .astype(np.int32))
             rasters.append((first_sub, camera.height, camera.width))
             first_sub += camera.height * s * width
             first_pixel += camera.height * camera.width

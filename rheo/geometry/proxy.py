@@ -14,9 +14,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-
-class ProxyError(ValueError):
-    """A proxy description or mesh that cannot be voxelised."""
+from rheo.geometry.shapes import ProxyError, analytic_volume, check_positive
 
 
 @dataclass(frozen=True)
@@ -46,7 +44,7 @@ def _y_up(mesh: trimesh.Trimesh) -> trimesh.Trimesh:
 
 def truncated_cone(base_diameter: float, top_diameter: float, height: float, sections: int = 256) -> trimesh.Trimesh:
     """A solid truncated cone standing on its base (an upturned cup's contents: base = the cup's rim)."""
-    _positive(base_diameter=base_diameter, top_diameter=top_diameter, height=height)
+    check_positive(base_diameter=base_diameter, top_diameter=top_diameter, height=height)
     mesh = trimesh.creation.cylinder(radius=base_diameter / 2, height=height, sections=sections)
     z = mesh.vertices[:, 2]
     scale = 1.0 + (top_diameter / base_diameter - 1.0) * (z + height / 2) / height
@@ -54,19 +52,14 @@ def truncated_cone(base_diameter: float, top_diameter: float, height: float, sec
     return _y_up(mesh)
 
 
-def truncated_cone_volume(base_diameter: float, top_diameter: float, height: float) -> float:
-    r1, r2 = base_diameter / 2, top_diameter / 2
-    return math.pi * height * (r1 * r1 + r1 * r2 + r2 * r2) / 3
-
-
 def cylinder(radius: float, height: float, sections: int = 256) -> trimesh.Trimesh:
-    _positive(radius=radius, height=height)
+    check_positive(radius=radius, height=height)
     return _y_up(trimesh.creation.cylinder(radius=radius, height=height, sections=sections))
 
 
 def spheroid(radius: float, height: float, subdivisions: int = 5) -> trimesh.Trimesh:
     """A spheroid with equatorial radius ``radius`` and vertical extent ``height`` (prolate when height > 2 radius)."""
-    _positive(radius=radius, height=height)
+    check_positive(radius=radius, height=height)
     mesh = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
     mesh.apply_scale([radius, height / 2, radius])
     mesh.apply_translation([0.0, height / 2, 0.0])
@@ -75,7 +68,7 @@ def spheroid(radius: float, height: float, subdivisions: int = 5) -> trimesh.Tri
 
 def box(extents) -> trimesh.Trimesh:
     extents = [float(e) for e in extents]
-    _positive(**{f"extent {i}": e for i, e in enumerate(extents)})
+    check_positive(**{f"extent {i}": e for i, e in enumerate(extents)})
     mesh = trimesh.creation.box(extents=extents)
     mesh.apply_translation([0.0, extents[1] / 2, 0.0])
     return mesh
@@ -153,37 +146,20 @@ def voxelize(mesh: trimesh.Trimesh, spacing: float, directions: int = 1) -> Voxe
     return Voxelized(occupancy=occupancy, origin=origin, spacing=spacing, particles=origin + index * spacing)
 
 
-def _positive(**values: float) -> None:
-    for name, value in values.items():
-        if not (math.isfinite(value) and value > 0):
-            raise ProxyError(f"proxy {name} = {value!r} must be finite and > 0")
-
-
-_REQUIRED = {"truncated_cone": ("base_diameter", "top_diameter", "height"), "spheroid": ("radius", "height"),
-             "cylinder": ("radius", "height"), "box": ("extents",), "mesh": ("mesh",)}
-
-
 def from_config(cfg: dict) -> tuple[trimesh.Trimesh, float | None]:
     """The proxy mesh described by an experiment's ``proxy`` section, placed in the world; and its analytic volume
     (None for a mesh file)."""
-    shape = cfg["shape"]
-    missing = [key for key in _REQUIRED[shape] if key not in cfg]
-    if missing:
-        raise ProxyError(f"proxy shape {shape!r} needs {', '.join(missing)}")
-    s = cfg.get("scale", 1.0)
+    volume = analytic_volume(cfg)
+    shape, s = cfg["shape"], cfg.get("scale", 1.0)
     if shape == "truncated_cone":
-        args = (cfg["base_diameter"] * s, cfg["top_diameter"] * s, cfg["height"] * s)
-        mesh, volume = truncated_cone(*args), truncated_cone_volume(*args)
+        mesh = truncated_cone(cfg["base_diameter"] * s, cfg["top_diameter"] * s, cfg["height"] * s)
     elif shape == "spheroid":
-        r, h = cfg["radius"] * s, cfg["height"] * s
-        mesh, volume = spheroid(r, h), 2 / 3 * math.pi * r * r * h
+        mesh = spheroid(cfg["radius"] * s, cfg["height"] * s)
     elif shape == "cylinder":
-        r, h = cfg["radius"] * s, cfg["height"] * s
-        mesh, volume = cylinder(r, h), math.pi * r * r * h
+        mesh = cylinder(cfg["radius"] * s, cfg["height"] * s)
     elif shape == "box":
-        extents = [e * s for e in cfg["extents"]]
-        mesh, volume = box(extents), float(np.prod(extents))
+        mesh = box([e * s for e in cfg["extents"]])
     else:
-        mesh, volume = load_mesh(cfg["mesh"], scale=s), None
+        mesh = load_mesh(cfg["mesh"], scale=s)
     mesh.apply_translation(cfg.get("position", (0.0, 0.0, 0.0)))
     return mesh, volume

@@ -7,13 +7,14 @@ import pytest
 import trimesh
 
 from rheo.geometry import proxy
+from rheo.geometry.shapes import analytic_volume, truncated_cone_volume
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data"
 
 
 @pytest.mark.parametrize(("mesh", "volume"), [
     # the thesis' 3 oz cup (rim 54 mm, bottom 38 mm, height 53 mm), upturned, scaled by 4
-    (proxy.truncated_cone(0.216, 0.152, 0.212), proxy.truncated_cone_volume(0.216, 0.152, 0.212)),
+    (proxy.truncated_cone(0.216, 0.152, 0.212), truncated_cone_volume(0.216, 0.152, 0.212)),
     (proxy.cylinder(0.1, 0.2), math.pi * 0.1**2 * 0.2),
     (proxy.spheroid(0.1, 0.6), 4 / 3 * math.pi * 0.1**2 * 0.3),
     (proxy.box((0.1, 0.2, 0.3)), 0.006),
@@ -24,6 +25,25 @@ def test_voxelised_volume_within_one_percent(mesh, volume):
     assert mesh.volume == pytest.approx(volume, rel=0.001)
     assert vox.particles[:, 1].min() > 0  # standing on y = 0, y up
     assert vox.occupancy.sum() == len(vox.particles)
+
+
+@pytest.mark.parametrize("cfg", [
+    {"shape": "truncated_cone", "base_diameter": 0.054, "top_diameter": 0.038, "height": 0.053, "scale": 4.0},
+    {"shape": "cylinder", "radius": 0.12, "height": 0.2, "position": [0.5, 0.0, 0.5]},
+    {"shape": "spheroid", "radius": 0.1, "height": 0.3},
+    {"shape": "box", "extents": [0.1, 0.2, 0.3], "scale": 0.5},
+], ids=["cup", "cylinder", "spheroid", "box"])
+def test_a_configured_primitive_s_volume_without_its_mesh_is_its_mesh_s(cfg):
+    mesh, volume = proxy.from_config(cfg)
+    assert analytic_volume(cfg) == volume == pytest.approx(mesh.volume, rel=0.002)
+
+
+def test_a_configured_primitive_s_sizes_are_checked_without_its_mesh():
+    with pytest.raises(proxy.ProxyError, match="proxy shape 'cylinder' needs height"):
+        analytic_volume({"shape": "cylinder", "radius": 0.1})
+    with pytest.raises(proxy.ProxyError, match=r"proxy extent 1 = -0\.2 must be finite and > 0"):
+        analytic_volume({"shape": "box", "extents": [0.1, -0.2, 0.3]})
+    assert analytic_volume({"shape": "mesh", "mesh": "bunny.obj"}) is None
 
 
 def test_spheroid_is_tall_along_y():
