@@ -22,7 +22,7 @@ import numpy as np
 
 from rheo.experiments.dam_break import Effects, dam_break_scene
 from rheo.experiments.virheometry import Setup, StaticBox, container_silhouette
-from rheo.experiments.virtual_lab import lab_view
+from rheo.experiments.virtual_lab import lab_mask
 from rheo.physics import HerschelBulkley
 from rheo.vision.cameras import Camera, intrinsics, look_at
 
@@ -127,7 +127,7 @@ def film(scene: dict, geometry: dict, index: int, lab: dict, name: str, truth: T
     positions = lab_scene.positions(lab_scene.rollout(material, steps * RELEASE_STEP, RELEASE_STEP, truth.effects))
     camera = zoomed(rolled(setup.camera, truth.camera_roll), truth.camera_zoom)
     container = container_silhouette(dataclasses.replace(setup, camera=camera))
-    masks = [lab_view(camera, positions[first + k * per_frame], lab_scene.spacing)[1] | container
+    masks = [lab_mask(camera, positions[first + k * per_frame], lab_scene.spacing) | container
              for k in range(scene["frames"])]
     setup.masks[:] = masks
     return setup

@@ -22,7 +22,7 @@ from tqdm.auto import tqdm
 from rheo.experiments.scene import particle_spacing, simulator
 from rheo.geometry.proxy import from_config, voxelize
 from rheo.io import write_atomic_dir
-from rheo.render.lab import FloorBoard, Scene, board_texture, render
+from rheo.render.lab import FloorBoard, Scene, board_texture, render, splats
 from rheo.vision.cameras import Camera, hemisphere
 
 
@@ -119,6 +119,11 @@ def lab_view(camera: Camera, points: np.ndarray | None = None, spacing: float | 
     """A noise-free view rendered at twice the resolution and averaged down: image (float, 0-255) and true mask."""
     image, mask = render(_supersampled(camera, 2), points, spacing, board=board)
     return _downsample(image.astype(np.float32), camera), _downsample(mask.astype(np.float32), camera) >= 0.5
+
+
+def lab_mask(camera: Camera, points: np.ndarray, spacing: float) -> np.ndarray:
+    """``lab_view``'s true mask alone (no image drawn)."""
+    return _downsample(splats(_supersampled(camera, 2), points, spacing)[1].astype(np.float32), camera) >= 0.5
 
 
 def _uint8(image: np.ndarray) -> np.ndarray:

@@ -99,6 +99,34 @@ def surface_normals(origin: np.ndarray, dirs: np.ndarray, forward: np.ndarray, d
     return points, normals / np.maximum(np.linalg.norm(normals, axis=-1, keepdims=True), 1e-12)
 
 
+def splats(camera: Camera, points: np.ndarray, spacing: float, scene: Scene = Scene()
+           ) -> tuple[np.ndarray, np.ndarray, float]:
+    """The particles ``points`` of lattice ``spacing`` splatted as discs: the depth buffer (inf where no disc
+    reaches), the true mask of the material (slits narrower than two particle spacings closed) and the spacing in
+    pixels."""
+    uv, depth = camera.project(points)
+    radius_px = scene.splat_radius * spacing * camera.K[0, 0] / np.maximum(depth, 1e-6)
+    order = np.argsort(-depth)  # far to near: of the splats reaching a pixel in one pass, the nearest is last
+    uv, radius_px, depth = uv[order], radius_px[order], depth[order]
+    zbuffer = np.full((camera.height, camera.width), np.inf)
+    reach = int(np.ceil(radius_px.max()))
+    for du in range(-reach, reach + 1):
+        for dv in range(-reach, reach + 1):
+            px = np.floor(uv[:, 0]).astype(int) + du
+            py = np.floor(uv[:, 1]).astype(int) + dv
+            d2 = (px + 0.5 - uv[:, 0]) ** 2 + (py + 0.5 - uv[:, 1]) ** 2
+            keep = (d2 <= radius_px**2) & (px >= 0) & (py >= 0) & (px < camera.width) & (py < camera.height)
+            px, py, near = px[keep], py[keep], depth[keep]
+            closer = near < zbuffer[py, px]
+            zbuffer[py[closer], px[closer]] = near[closer]
+    covered = np.isfinite(zbuffer)
+    spacing_px = float(np.median(radius_px)) / scene.splat_radius
+    gap = int(np.ceil(spacing_px))
+    disk = (np.hypot(*np.mgrid[-gap:gap + 1, -gap:gap + 1]) <= gap).astype(np.uint8)
+    closed = cv2.morphologyEx(np.pad(covered, gap + 1).astype(np.uint8), cv2.MORPH_CLOSE, disk)
+    return zbuffer, closed[gap + 1:-gap - 1, gap + 1:-gap - 1].astype(bool) | covered, spacing_px
+
+
 def render(camera: Camera, points: np.ndarray | None = None, spacing: float | None = None, *,
            scene: Scene = Scene(), board: FloorBoard | None = None,
            rng: np.random.Generator | None = None) -> tuple[np.ndarray, np.ndarray]:
@@ -122,28 +150,8 @@ def render(camera: Camera, points: np.ndarray | None = None, spacing: float | No
     image = np.where(on_floor[..., None], floor * shade[..., None], backdrop)
     mask = np.zeros(x.shape, dtype=bool)
     if points is not None and len(points):
-        uv, depth = camera.project(points)
-        radius_px = scene.splat_radius * spacing * camera.K[0, 0] / np.maximum(depth, 1e-6)
-        order = np.argsort(-depth)  # far to near: of the splats reaching a pixel in one pass, the nearest is last
-        uv, radius_px, depth = uv[order], radius_px[order], depth[order]
-        zbuffer = np.full(x.shape, np.inf)
-        reach = int(np.ceil(radius_px.max()))
-        for du in range(-reach, reach + 1):
-            for dv in range(-reach, reach + 1):
-                px = np.floor(uv[:, 0]).astype(int) + du
-                py = np.floor(uv[:, 1]).astype(int) + dv
-                d2 = (px + 0.5 - uv[:, 0]) ** 2 + (py + 0.5 - uv[:, 1]) ** 2
-                keep = (d2 <= radius_px**2) & (px >= 0) & (py >= 0) & (px < camera.width) & (py < camera.height)
-                px, py, near = px[keep], py[keep], depth[keep]
-                closer = near < zbuffer[py, px]
-                zbuffer[py[closer], px[closer]] = near[closer]
+        zbuffer, mask, spacing_px = splats(camera, points, spacing, scene)
         covered = np.isfinite(zbuffer)
-        spacing_px = float(np.median(radius_px)) / scene.splat_radius
-        # the material, not its particles: slits narrower than two particle spacings closed
-        gap = int(np.ceil(spacing_px))
-        disk = (np.hypot(*np.mgrid[-gap:gap + 1, -gap:gap + 1]) <= gap).astype(np.uint8)
-        closed = cv2.morphologyEx(np.pad(covered, gap + 1).astype(np.uint8), cv2.MORPH_CLOSE, disk)
-        mask = closed[gap + 1:-gap - 1, gap + 1:-gap - 1].astype(bool) | covered
         # shaded per pixel from the smoothed surface, so that the particles' lattice does not show
         surface, normals = surface_normals(origin, dirs, camera.c2w[:3, 2], zbuffer, covered, smoothing=spacing_px)
         diffuse = np.clip(normals @ light, 0.0, 1.0)

@@ -3,6 +3,7 @@ lattice showing."""
 
 import numpy as np
 
+from rheo.experiments.virtual_lab import lab_mask, lab_view
 from rheo.render.lab import Scene, render
 from rheo.vision.cameras import hemisphere
 
@@ -10,11 +11,15 @@ RADIUS, SPACING = 0.15, 0.01
 CENTER = np.array([0.5, 0.3, 0.5])
 
 
-def test_a_ball_of_particles_is_shaded_as_a_sphere():
-    camera = hemisphere(1, 1.5, [25.0, 25.0], CENTER, 320, 240, 40.0)[0]
+def ball() -> np.ndarray:
     axis = np.arange(-RADIUS, RADIUS + 1e-9, SPACING)
     lattice = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3)
-    points = CENTER + lattice[np.linalg.norm(lattice, axis=1) <= RADIUS]
+    return CENTER + lattice[np.linalg.norm(lattice, axis=1) <= RADIUS]
+
+
+def test_a_ball_of_particles_is_shaded_as_a_sphere():
+    camera = hemisphere(1, 1.5, [25.0, 25.0], CENTER, 320, 240, 40.0)[0]
+    points = ball()
     scene = Scene(noise=0.0)
     image, mask = render(camera, points, SPACING, scene=scene)
 
@@ -41,3 +46,9 @@ def test_a_ball_of_particles_is_shaded_as_a_sphere():
     inner = hit & (miss < (0.8 * RADIUS) ** 2) & mask
     error = np.abs(image[inner].astype(float) - expected[inner]).max(axis=-1)
     assert np.median(error) < 6 and np.percentile(error, 95) < 20, (np.median(error), np.percentile(error, 95))
+
+
+def test_the_lab_s_mask_alone_is_the_mask_it_films_with_the_image():
+    camera = hemisphere(1, 1.5, [25.0, 25.0], CENTER, 160, 120, 40.0, (0.1, -0.2, 0.0, 0.0, 0.05))[0]
+    mask = lab_mask(camera, ball(), SPACING)
+    assert mask.any() and (mask == lab_view(camera, ball(), SPACING)[1]).all()
