@@ -80,16 +80,16 @@ def overlay_grid(lines: list[tuple[np.ndarray, np.ndarray, Callable[[int], str]]
 def rheometer_comparison(laws: dict[str, tuple[float, float, float]], curves: list[FlowCurve],
                          band: tuple[float, float]) -> tuple[str, dict[str, dict[str, float]]]:
     """The RMS of log10(tau_law / tau_rheometer) of every law (label: tau_y, K, n) against every rheometer curve
-    over the shear-rate ``band``: an HTML table (a row per law, a column per curve) and the errors by curve and
-    label."""
+    over the shear-rate ``band``: an HTML table (a row per law, its label in words: an effect's name with spaces, a
+    column per curve) and the errors by curve and label."""
     inside = [curve.within(tuple(band)) for curve in curves]
     errors = {curve.name: {label: log_rms_error(*law, points) if len(points.shear_rate) else float("nan")
                            for label, law in laws.items()} for curve, points in zip(curves, inside, strict=True)}
     header = ["law", "tau_y (Pa)", "K (Pa s^n)", "n",
               *(f"RMS log10, {curve.name} ({curve.temperature:.1f} C; {len(points.shear_rate)} points in the band)"
                 for curve, points in zip(curves, inside, strict=True))]
-    rows = [[label, *(f"{v:.3g}" for v in law), *(f"{errors[curve.name][label]:.3f}" for curve in curves)]
-            for label, law in laws.items()]
+    rows = [[label.replace("_", " "), *(f"{v:.3g}" for v in law),
+             *(f"{errors[curve.name][label]:.3f}" for curve in curves)] for label, law in laws.items()]
     return table_tag(header, rows), errors
 
 

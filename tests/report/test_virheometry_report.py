@@ -14,14 +14,14 @@ RHEOMETER = Path(__file__).resolve().parents[3] / "shared/data/rheometer"
 
 def test_every_law_is_a_row_with_its_error_against_every_curve_over_the_band():
     curves = [read_flow_curve(p) for p in sorted(RHEOMETER.glob("Lotion_*.csv"))]
-    laws = {"bingham": (14.8, 0.79, 1.0), "thinning": (7.0, 5.3, 0.53)}
+    laws = {"bingham": (14.8, 0.79, 1.0), "shear_thinning": (7.0, 5.3, 0.53)}
     band = (0.5, 20.0)
     table, errors = rheometer_comparison(laws, curves, band)
     rows = table.split("<tr>")[2:]
     assert len(curves) == 4 and len(rows) == len(laws)
     for (label, (tau_y, K, n)), row in zip(laws.items(), rows, strict=True):
         cells = table_cells(row)
-        assert cells[:4] == [label, f"{tau_y:.3g}", f"{K:.3g}", f"{n:.3g}"]
+        assert cells[:4] == [label.replace("_", " "), f"{tau_y:.3g}", f"{K:.3g}", f"{n:.3g}"]  # an effect in words
         for curve, cell in zip(curves, cells[4:], strict=True):
             inside = (curve.shear_rate >= band[0]) & (curve.shear_rate <= band[1])
             law = tau_y + K * curve.shear_rate[inside] ** n
@@ -29,7 +29,7 @@ def test_every_law_is_a_row_with_its_error_against_every_curve_over_the_band():
             assert abs(errors[curve.name][label] - expected) < 1e-12
             assert cell == f"{expected:.3f}"
     # the rheometer's own Herschel-Bulkley fit lies closer to its curves than the Bingham line does
-    assert all(e["thinning"] < e["bingham"] for e in errors.values())
+    assert all(e["shear_thinning"] < e["bingham"] for e in errors.values())
     # a band that holds none of a curve's points gives no error rather than one over the wrong points
     _, outside = rheometer_comparison(laws, curves, (1e4, 2e4))
     assert all(np.isnan(v) for e in outside.values() for v in e.values())
