@@ -118,12 +118,17 @@ def lab_view(camera: Camera, points: np.ndarray | None = None, spacing: float | 
               board: FloorBoard | None = None) -> tuple[np.ndarray, np.ndarray]:
     """A noise-free view rendered at twice the resolution and averaged down: image (float, 0-255) and true mask."""
     image, mask = render(_supersampled(camera, 2), points, spacing, board=board)
-    return _downsample(image.astype(np.float32), camera), _downsample(mask.astype(np.float32), camera) >= 0.5
+    return _downsample(image.astype(np.float32), camera), _downsampled_mask(mask, camera)
 
 
 def lab_mask(camera: Camera, points: np.ndarray, spacing: float) -> np.ndarray:
     """``lab_view``'s true mask alone (no image drawn)."""
-    return _downsample(splats(_supersampled(camera, 2), points, spacing)[1].astype(np.float32), camera) >= 0.5
+    return _downsampled_mask(splats(_supersampled(camera, 2), points, spacing)[1], camera)
+
+
+def _downsampled_mask(mask: np.ndarray, camera: Camera) -> np.ndarray:
+    """A mask rendered at twice the resolution, averaged down: the pixels at least half covered."""
+    return _downsample(mask.astype(np.float32), camera) >= 0.5
 
 
 def _uint8(image: np.ndarray) -> np.ndarray:

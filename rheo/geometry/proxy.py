@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from rheo.geometry.shapes import ProxyError, analytic_volume, check_positive
+from rheo.geometry.shapes import ProxyError, analytic_volume, check_positive, sizes
 
 
 @dataclass(frozen=True)
@@ -149,17 +149,8 @@ def voxelize(mesh: trimesh.Trimesh, spacing: float, directions: int = 1) -> Voxe
 def from_config(cfg: dict) -> tuple[trimesh.Trimesh, float | None]:
     """The proxy mesh described by an experiment's ``proxy`` section, placed in the world; and its analytic volume
     (None for a mesh file)."""
-    volume = analytic_volume(cfg)
-    shape, s = cfg["shape"], cfg.get("scale", 1.0)
-    if shape == "truncated_cone":
-        mesh = truncated_cone(cfg["base_diameter"] * s, cfg["top_diameter"] * s, cfg["height"] * s)
-    elif shape == "spheroid":
-        mesh = spheroid(cfg["radius"] * s, cfg["height"] * s)
-    elif shape == "cylinder":
-        mesh = cylinder(cfg["radius"] * s, cfg["height"] * s)
-    elif shape == "box":
-        mesh = box([e * s for e in cfg["extents"]])
-    else:
-        mesh = load_mesh(cfg["mesh"], scale=s)
+    builders = {"truncated_cone": truncated_cone, "spheroid": spheroid, "cylinder": cylinder, "box": box}
+    shape, size = cfg["shape"], sizes(cfg)
+    mesh = builders[shape](**size) if shape in builders else load_mesh(cfg["mesh"], scale=cfg.get("scale", 1.0))
     mesh.apply_translation(cfg.get("position", (0.0, 0.0, 0.0)))
-    return mesh, volume
+    return mesh, analytic_volume(cfg)

@@ -25,25 +25,33 @@ def truncated_cone_volume(base_diameter: float, top_diameter: float, height: flo
     return math.pi * height * (r1 * r1 + r1 * r2 + r2 * r2) / 3
 
 
-def analytic_volume(cfg: dict) -> float | None:
-    """The volume (m^3) of the primitive an experiment's ``proxy`` section describes, its keys and sizes checked;
-    None for a mesh file."""
+def sizes(cfg: dict) -> dict[str, float | list[float]]:
+    """The sizes (m) of the primitive an experiment's ``proxy`` section describes, scaled by its ``scale`` and
+    checked (every key given, finite and > 0), as its mesh builder takes them; {} for a mesh file."""
     shape = cfg["shape"]
     missing = [key for key in REQUIRED[shape] if key not in cfg]
     if missing:
         raise ProxyError(f"proxy shape {shape!r} needs {', '.join(missing)}")
+    if shape == "mesh":
+        return {}
     s = cfg.get("scale", 1.0)
-    if shape == "truncated_cone":
-        sizes = {"base_diameter": cfg["base_diameter"] * s, "top_diameter": cfg["top_diameter"] * s,
-                 "height": cfg["height"] * s}
-        check_positive(**sizes)
-        return truncated_cone_volume(**sizes)
-    if shape in ("spheroid", "cylinder"):
-        r, h = cfg["radius"] * s, cfg["height"] * s
-        check_positive(radius=r, height=h)
-        return (2 / 3 if shape == "spheroid" else 1.0) * math.pi * r * r * h
     if shape == "box":
         extents = [float(e) * s for e in cfg["extents"]]
         check_positive(**{f"extent {i}": e for i, e in enumerate(extents)})
-        return math.prod(extents)
+        return {"extents": extents}
+    scaled = {key: cfg[key] * s for key in REQUIRED[shape]}
+    check_positive(**scaled)
+    return scaled
+
+
+def analytic_volume(cfg: dict) -> float | None:
+    """The volume (m^3) of the primitive an experiment's ``proxy`` section describes (its ``sizes``); None for a mesh
+    file."""
+    shape, size = cfg["shape"], sizes(cfg)
+    if shape == "truncated_cone":
+        return truncated_cone_volume(**size)
+    if shape in ("spheroid", "cylinder"):
+        return (2 / 3 if shape == "spheroid" else 1.0) * math.pi * size["radius"] ** 2 * size["height"]
+    if shape == "box":
+        return math.prod(size["extents"])
     return None
