@@ -68,8 +68,10 @@ if diagnoses:
                "diagnosis (min, on the machines that ran its evaluations)"]
 candidates_section = "" if not records else (
     "<h2>What each candidate effect did</h2><p>Each cell: the change of the information criterion from the base fit "
-    f"(an effect is named where it falls by more than {next(iter(records.values()))['evidence']:g}), the refit's "
-    "flow index and, where there are rheometer curves, its largest RMS log10 error against them.</p>"
+    f"(an effect is named where it falls by more than {next(iter(records.values()))['evidence']:g}), the change "
+    "of the held-out losses (frames between the fitted ones; the last frames, predicted), the refit's flow index "
+    "and, where there are rheometer curves, its largest RMS log10 error against them. The last row counts the "
+    "materials whose last frames each refit predicts 1 % better than the base fit or more.</p>"
     + candidates_table(records, rheometer))
 body = (table_tag(header, rows)
         + "<p>* not determined by the recordings (tolerance interval wider than a factor 4, for n 1.5, or open: < or "

@@ -93,11 +93,19 @@ def rheometer_comparison(laws: dict[str, tuple[float, float, float]], curves: li
     return table_tag(header, rows), errors
 
 
+def held_out_change(candidate: dict, base: dict, key: str) -> float | None:
+    """A candidate's refit's change (%) of a held-out loss (``key``) against the base fit, None where no frame was held
+    out."""
+    before, after = base.get(key), candidate.get(key)
+    return None if not before or after is None else 100 * (after / before - 1)
+
+
 def candidates_table(diagnoses: dict[str, dict], curves: dict[str, list[FlowCurve]]) -> str:
     """Per material (name: diagnosis.json's record) what each candidate effect's refit did: the change of the
-    information criterion from the base fit, the refit's flow index and, where the material has rheometer
-    ``curves``, its largest RMS log10 error against them over the diagnosis' shear-rate band; "-" where the
-    candidate was not tried (not applicable to the setups)."""
+    information criterion from the base fit, of the held-out losses (between fitted frames; the last frames), the
+    refit's flow index and, where the material has rheometer ``curves``, its largest RMS log10 error against them
+    over the diagnosis' shear-rate band; "-" where the candidate was not tried (not applicable to the setups). The
+    last row counts, per candidate, the materials whose last frames its refit predicts better by 1 % or more."""
     names = list(dict.fromkeys(c["effect"] for record in diagnoses.values() for c in record["candidates"]))
 
     def law_text(fit: dict, material: str) -> str:
@@ -109,12 +117,23 @@ def candidates_table(diagnoses: dict[str, dict], curves: dict[str, list[FlowCurv
             text += f", RMS {max(e['law'] for e in errors.values()):.3f}"
         return text
 
-    rows = []
+    def cell(candidate: dict, record: dict, material: str) -> str:
+        changes = [f"{label} {change:+.0f} %" for label, key in (("between", "held_out_loss_px"),
+                                                                 ("last", "forecast_loss_px"))
+                   if (change := held_out_change(candidate, record["base"], key)) is not None]
+        return "; ".join([f"{candidate['delta_criterion']:+.1f}", *([", ".join(changes)] if changes else []),
+                          law_text(candidate, material)])
+
+    rows, better, tried_on = [], dict.fromkeys(names, 0), dict.fromkeys(names, 0)
     for material, record in diagnoses.items():
         tried = {c["effect"]: c for c in record["candidates"]}
+        for name, candidate in tried.items():
+            change = held_out_change(candidate, record["base"], "forecast_loss_px")
+            tried_on[name] += change is not None
+            better[name] += change is not None and change <= -1
         rows.append([material, law_text(record["base"], material),
-                     *(f"{tried[n]['delta_criterion']:+.1f}; {law_text(tried[n], material)}" if n in tried else "-"
-                       for n in names)])
+                     *(cell(tried[n], record, material) if n in tried else "-" for n in names)])
+    rows.append(["last frames predicted 1 % better or more", "", *(f"{better[n]} of {tried_on[n]}" for n in names)])
     return table_tag(["material", "base fit", *(n.replace("_", " ") for n in names)], rows)
 
 

@@ -69,6 +69,15 @@ def test_the_summary_plans_a_joint_fit_and_a_page_per_material_and_an_import_per
 
 # the laws (tau_y, K, n) of the base fit and of each candidate's refit in the diagnoses the summary reads
 CANDIDATE_LAWS = {"base": (14.8, 0.79, 1.0), "floor_friction": (12.0, 1.1, 1.0), "shear_thinning": (7.0, 5.3, 0.53)}
+# and their held-out losses (between fitted frames; last frames) on the materials that hold frames out (all but the
+# last three)
+HELD_OUT = {"base": (0.02, 0.04), "floor_friction": (0.015, 0.05), "shear_thinning": (0.021, 0.03)}
+
+
+def held_out(fit: str, i: int) -> dict:
+    """The held-out losses (px) of a fit on the i-th material."""
+    between, last = HELD_OUT[fit]
+    return {"held_out_loss_px": None if i > 8 else between, "forecast_loss_px": None if i > 8 else last * (1 + i / 10)}
 
 
 def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
@@ -93,8 +102,9 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
             "loss_before_after_px": {"held_out": [0.02, 0.01 if i == 0 else 0.02], "forecast": [0.04, 0.04]},
             "flow_curve_rms_log10": {"band_per_s": [0.5, 20.0],
                                      "by_curve": {"a": {"base fit": 0.1, **refit}, "b": {"base fit": 0.2, **refit}}},
-            "base": {"values": dict(zip(("tau_y_Pa", "K_Pa_s_n", "n"), CANDIDATE_LAWS["base"], strict=True))},
-            "candidates": [{"effect": effect, "delta_criterion": change,
+            "base": {"values": dict(zip(("tau_y_Pa", "K_Pa_s_n", "n"), CANDIDATE_LAWS["base"], strict=True)),
+                     **held_out("base", i)},
+            "candidates": [{"effect": effect, "delta_criterion": change, **held_out(effect, i),
                             "values": dict(zip(("tau_y_Pa", "K_Pa_s_n", "n"), CANDIDATE_LAWS[effect], strict=True))}
                            for effect, change in ((("floor_friction", -8.0),) if i % 2 == 0 else ())
                            + (("shear_thinning", 1.5),)]}))
@@ -131,17 +141,25 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
     candidates = page.split("What each candidate effect did")[1].split("</table>")[0].split("<tr>")
     assert table_cells(candidates[1].replace("<th>", "<td>").replace("</th>", "</td>")) == [
         "material", "base fit", "floor friction", "shear thinning"]
-    for i, (material, row) in enumerate(zip(materials, candidates[2:], strict=True)):
+    for i, (material, row) in enumerate(zip(materials, candidates[2:-1], strict=True)):
         def law_text(effect: str, material: str = material) -> str:
             curves = [read_flow_curve(p) for p in sorted(glob.glob(
                 str(workflow.root.parent / f"shared/data/rheometer/{material}_*.csv")))]
             worst = max((log_rms_error(*CANDIDATE_LAWS[effect], c.within((0.5, 20.0))) for c in curves), default=None)
             return f"n {CANDIDATE_LAWS[effect][2]:.2f}" + ("" if worst is None else f", RMS {worst:.3f}")
 
+        # held-out changes against the base fit's 0.02 px (between) and 0.04 (1 + i / 10) px (last frames)
+        changes = {"floor_friction": "between -25 %, last +25 %; ", "shear_thinning": "between +5 %, last -25 %; "}
+        if i > 8:
+            changes = dict.fromkeys(changes, "")
         assert table_cells(row) == [material, law_text("base"),
-                                    f"-8.0; {law_text('floor_friction')}" if i % 2 == 0 else "-",
-                                    f"+1.5; {law_text('shear_thinning')}"]
+                                    f"-8.0; {changes['floor_friction']}{law_text('floor_friction')}"
+                                    if i % 2 == 0 else "-",
+                                    f"+1.5; {changes['shear_thinning']}{law_text('shear_thinning')}"]
     assert "RMS" in candidates[2 + materials.index("Lotion")]
+    # of the materials with frames held out, those whose last frames a refit predicts better: shear thinning's on all
+    # nine, floor friction's on none of the five it was tried on
+    assert table_cells(candidates[-1]) == ["last frames predicted 1 % better or more", "", "0 of 5", "9 of 9"]
     # the fits' page: the same table without the diagnoses, which it does not wait for
     shutil.rmtree(workflow.root / "results/virheometry/Lotion/diagnosis")
     run = workflow.run("results/virheometry/fits.html", "--allowed-rules", "virheometry_fits")
