@@ -15,7 +15,7 @@ from rheo.diagnose.candidates import CANDIDATES, OPEN_DRAG
 from rheo.experiments.dam_break import OPEN_LAYER
 from rheo.physics.optional import open_drag_rate
 from rheo.report.html import figure_tag, image_tag, table_tag
-from rheo.report.virheometry import overlay_grid
+from rheo.report.virheometry import held_out_change, overlay_grid
 
 
 def shown_frames(fitted: np.ndarray) -> list[int]:
@@ -99,6 +99,22 @@ def _value(v) -> str:
     return "-" if v is None else f"{v:.4g}"
 
 
+def closest_text(record: dict) -> str:
+    """Where no candidate is named, the one that lowers the criterion most: how far it came and what its refit did
+    to the held-out losses."""
+    if record["chosen"] is not None or not record["candidates"]:
+        return ""
+    closest = min(record["candidates"], key=lambda c: c["delta_criterion"])
+    if closest["delta_criterion"] >= 0:
+        return "<p>No candidate lowers the criterion.</p>"
+    changes = [f"{words} {change:+.0f} %" for words, key in (("between fitted frames", "held_out_loss_px"),
+                                                              ("last frames", "forecast_loss_px"))
+               if (change := held_out_change(closest, record["base"], key)) is not None]
+    return (f"<p>Closest to being named: {closest['title']}, criterion {closest['delta_criterion']:+.1f} (named "
+            f"below -{record['evidence']:g})" + (f"; its refit's held-out loss {', '.join(changes)}" if changes else "")
+            + ".</p>")
+
+
 def section(record: dict, maps: bytes | None = None, extra: str = "") -> str:
     """HTML of the diagnosis ``record`` (diagnosis.json)."""
     chosen = record["chosen"]
@@ -133,7 +149,8 @@ def section(record: dict, maps: bytes | None = None, extra: str = "") -> str:
         profiles_figure(record["candidates"], record["base"]["loss_px"]),
         "each candidate's profile: the lowest loss with the effect held at each magnitude, the law refitted there "
         "(dashed: the base fit; in brackets, the change of the criterion; red: decoys)"))
-    return verdict + mismatch + criterion + table + profiles + open_drag_section(record) + figure + extra
+    return (verdict + closest_text(record) + mismatch + criterion + table + profiles + open_drag_section(record)
+            + figure + extra)
 
 
 def confusion_figure(truths: list[str], named: list[str], labels: list[str]):
