@@ -15,7 +15,7 @@ from rheo.diagnose.candidates import CANDIDATES, OPEN_DRAG
 from rheo.experiments.dam_break import OPEN_LAYER
 from rheo.physics.optional import open_drag_rate
 from rheo.report.html import figure_tag, image_tag, table_tag
-from rheo.report.virheometry import held_out_change, overlay_grid
+from rheo.report.virheometry import held_out_changes, overlay_grid
 
 
 def shown_frames(fitted: np.ndarray) -> list[int]:
@@ -107,9 +107,7 @@ def closest_text(record: dict) -> str:
     closest = min(record["candidates"], key=lambda c: c["delta_criterion"])
     if closest["delta_criterion"] >= 0:
         return "<p>No candidate lowers the criterion.</p>"
-    changes = [f"{words} {change:+.0f} %" for words, key in (("between fitted frames", "held_out_loss_px"),
-                                                              ("last frames", "forecast_loss_px"))
-               if (change := held_out_change(closest, record["base"], key)) is not None]
+    changes = held_out_changes(closest, record["base"], ("between fitted frames", "last frames"))
     return (f"<p>Closest to being named: {closest['title']}, criterion {closest['delta_criterion']:+.1f} (named "
             f"below -{record['evidence']:g})" + (f"; its refit's held-out loss {', '.join(changes)}" if changes else "")
             + ".</p>")

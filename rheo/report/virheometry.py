@@ -100,6 +100,13 @@ def held_out_change(candidate: dict, base: dict, key: str) -> float | None:
     return None if not before or after is None else 100 * (after / before - 1)
 
 
+def held_out_changes(candidate: dict, base: dict, words: tuple[str, str] = ("between", "last")) -> list[str]:
+    """The refit's changes of the held-out losses (between fitted frames; the last frames) against the base fit, each
+    after its word, those of frames not held out left out."""
+    return [f"{word} {change:+.0f} %" for word, key in zip(words, ("held_out_loss_px", "forecast_loss_px"), strict=True)
+            if (change := held_out_change(candidate, base, key)) is not None]
+
+
 def candidates_table(diagnoses: dict[str, dict], curves: dict[str, list[FlowCurve]]) -> str:
     """Per material (name: diagnosis.json's record) what each candidate effect's refit did: the change of the
     information criterion from the base fit, of the held-out losses (between fitted frames; the last frames), the
@@ -118,9 +125,7 @@ def candidates_table(diagnoses: dict[str, dict], curves: dict[str, list[FlowCurv
         return text
 
     def cell(candidate: dict, record: dict, material: str) -> str:
-        changes = [f"{label} {change:+.0f} %" for label, key in (("between", "held_out_loss_px"),
-                                                                 ("last", "forecast_loss_px"))
-                   if (change := held_out_change(candidate, record["base"], key)) is not None]
+        changes = held_out_changes(candidate, record["base"])
         return "; ".join([f"{candidate['delta_criterion']:+.1f}", *([", ".join(changes)] if changes else []),
                           law_text(candidate, material)])
 
