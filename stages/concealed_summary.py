@@ -7,8 +7,8 @@ with the code version and, for a drawn suite, its seed."""
 import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES
-from rheo.diagnose.scores import modelled, suite_scores, target_records, targets, truth_label
-from rheo.io import json_number, read_json, write_json_atomic, write_text_atomic
+from rheo.diagnose.scores import loss_change, modelled, suite_scores, target_records, targets, truth_label
+from rheo.io import read_json, write_json_atomic, write_text_atomic
 from rheo.report.diagnosis import confusion_section
 from rheo.report.html import page, table_tag
 from rheo.stage import code_version, start_stage
@@ -24,15 +24,9 @@ def bias(values: dict, truth: dict) -> float:
     return float(np.mean([abs(values[k] / truth[k] - 1) for k in CORE]) * 100)
 
 
-def change(losses: list[float | None]) -> float:
-    """The refit's change (%) of a held-out loss (before, after; px), nan where no frame was held out."""
-    before, after = losses
-    return 100 * (after / before - 1) if before else float("nan")
-
-
 def before_after(losses: list[float | None]) -> str:
     """Held-out losses before and after the refit (px) and their change, or "-" where no frame was held out."""
-    return "-" if not losses[0] else f"{losses[0]:.3g} / {losses[1]:.3g} ({change(losses):+.0f} %)"
+    return "-" if not losses[0] else f"{losses[0]:.3g} / {losses[1]:.3g} ({loss_change(*losses):+.0f} %)"
 
 
 def open_drag(diagnosis: dict) -> str:
@@ -55,7 +49,7 @@ for case, d_path, t_path, f_path, o_path in zip(smk.params.cases, smk.input.diag
     best = diagnosis["candidates"][0] if diagnosis["candidates"] else None
     concealed = ", ".join(f"{e['effect']} {e['magnitude']:g}" for e in truth["effects"]) or "none"
     record = {"case": case, "concealed": truth["effects"], "named": chosen, "named_magnitude": diagnosis["magnitude"],
-              "held_out_change_pct": json_number(change(held)), "forecast_change_pct": json_number(change(last)),
+              "held_out_change_pct": loss_change(*held), "forecast_change_pct": loss_change(*last),
               "core_bias_pct": [bias(base, truth), bias(after, truth)],
               "open_drag": diagnosis["open"] and {k: diagnosis["open"][k]
                                                       for k in ("explains", "delta_criterion", "words")},

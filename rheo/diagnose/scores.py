@@ -33,6 +33,11 @@ def truth_label(record: dict, candidates: Sequence[str]) -> str:
     return names[0] if names else "outside" if record["concealed"] else "none"
 
 
+def loss_change(before: float | None, after: float | None) -> float | None:
+    """A refit's change (%) of a held-out loss (px), None where no frame was held out."""
+    return None if not before or after is None else 100 * (after / before - 1)
+
+
 def down(change_pct: float | None) -> bool:
     return change_pct is not None and change_pct <= HELD_OUT_GAIN
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from rheo.geometry.shapes import ProxyError, analytic_volume, check_positive, sizes
+from rheo.geometry.shapes import ProxyError, check_positive, primitive_volume, sizes
 
 
 @dataclass(frozen=True)
@@ -153,4 +153,4 @@ def from_config(cfg: dict) -> tuple[trimesh.Trimesh, float | None]:
     shape, size = cfg["shape"], sizes(cfg)
     mesh = builders[shape](**size) if shape in builders else load_mesh(cfg["mesh"], scale=cfg.get("scale", 1.0))
     mesh.apply_translation(cfg.get("position", (0.0, 0.0, 0.0)))
-    return mesh, analytic_volume(cfg)
+    return mesh, primitive_volume(shape, size)

@@ -47,7 +47,11 @@ def sizes(cfg: dict) -> dict[str, float | list[float]]:
 def analytic_volume(cfg: dict) -> float | None:
     """The volume (m^3) of the primitive an experiment's ``proxy`` section describes (its ``sizes``); None for a mesh
     file."""
-    shape, size = cfg["shape"], sizes(cfg)
+    return primitive_volume(cfg["shape"], sizes(cfg))
+
+
+def primitive_volume(shape: str, size: dict[str, float | list[float]]) -> float | None:
+    """The volume (m^3) of a primitive ``shape`` of checked ``sizes``; None for a mesh file."""
     if shape == "truncated_cone":
         return truncated_cone_volume(**size)
     if shape in ("spheroid", "cylinder"):

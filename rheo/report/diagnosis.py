@@ -12,6 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES, OPEN_DRAG
+from rheo.diagnose.scores import loss_change
 from rheo.experiments.dam_break import OPEN_LAYER
 from rheo.physics.optional import open_drag_rate
 from rheo.report.html import figure_tag, image_tag, table_tag
@@ -120,10 +121,9 @@ def section(record: dict, maps: bytes | None = None, extra: str = "") -> str:
     before = losses["fitted"]
 
     def gain(pair: list[float | None], words: str) -> str:
-        if chosen is None or pair[0] in (None, 0):
+        if chosen is None or (change := loss_change(*pair)) is None:
             return ""
-        return (f" {words} {_value(pair[0])} px before, {_value(pair[1])} px after: "
-                f"{100 * (pair[1] / pair[0] - 1):+.0f} % change.")
+        return f" {words} {_value(pair[0])} px before, {_value(pair[1])} px after: {change:+.0f} % change."
 
     gains = (gain(losses["held_out"], "Loss on the frames held out between fitted ones")
              + gain(losses["forecast"], "Loss on the last frames, held out as a prediction"))

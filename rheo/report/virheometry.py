@@ -10,6 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+from rheo.diagnose.scores import loss_change
 from rheo.experiments.rheometer import RESULT_KEYS, FlowCurve, log_rms_error
 from rheo.experiments.virheometry import Setup
 from rheo.report.fit import flow_curve_figure
@@ -93,18 +94,11 @@ def rheometer_comparison(laws: dict[str, tuple[float, float, float]], curves: li
     return table_tag(header, rows), errors
 
 
-def held_out_change(candidate: dict, base: dict, key: str) -> float | None:
-    """A candidate's refit's change (%) of a held-out loss (``key``) against the base fit, None where no frame was held
-    out."""
-    before, after = base.get(key), candidate.get(key)
-    return None if not before or after is None else 100 * (after / before - 1)
-
-
 def held_out_changes(candidate: dict, base: dict, words: tuple[str, str] = ("between", "last")) -> list[str]:
     """The refit's changes of the held-out losses (between fitted frames; the last frames) against the base fit, each
     after its word, those of frames not held out left out."""
     return [f"{word} {change:+.0f} %" for word, key in zip(words, ("held_out_loss_px", "forecast_loss_px"), strict=True)
-            if (change := held_out_change(candidate, base, key)) is not None]
+            if (change := loss_change(base.get(key), candidate.get(key))) is not None]
 
 
 def candidates_table(diagnoses: dict[str, dict], curves: dict[str, list[FlowCurve]]) -> str:
@@ -133,7 +127,7 @@ def candidates_table(diagnoses: dict[str, dict], curves: dict[str, list[FlowCurv
     for material, record in diagnoses.items():
         tried = {c["effect"]: c for c in record["candidates"]}
         for name, candidate in tried.items():
-            change = held_out_change(candidate, record["base"], "forecast_loss_px")
+            change = loss_change(record["base"].get("forecast_loss_px"), candidate.get("forecast_loss_px"))
             tried_on[name] += change is not None
             better[name] += change is not None and change <= -1
         rows.append([material, law_text(record["base"], material),
