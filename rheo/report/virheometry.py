@@ -16,6 +16,7 @@ from rheo.experiments.virheometry import Setup
 from rheo.report.fit import flow_curve_figure
 from rheo.report.html import table_tag
 
+LAST_FRAMES_GAIN = -1.0  # %: a refit whose last frames' loss falls at least this far predicts them better
 # pairs of Setup.cuboid_corners() that differ along one axis
 CUBOID_EDGES = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)]
 
@@ -78,6 +79,11 @@ def overlay_grid(lines: list[tuple[np.ndarray, np.ndarray, Callable[[int], str]]
     return fig
 
 
+def in_words(name: str) -> str:
+    """An effect's or a law's name with spaces (floor_friction: floor friction)."""
+    return name.replace("_", " ")
+
+
 def rheometer_comparison(laws: dict[str, tuple[float, float, float]], curves: list[FlowCurve],
                          band: tuple[float, float]) -> tuple[str, dict[str, dict[str, float]]]:
     """The RMS of log10(tau_law / tau_rheometer) of every law (label: tau_y, K, n) against every rheometer curve
@@ -89,7 +95,7 @@ def rheometer_comparison(laws: dict[str, tuple[float, float, float]], curves: li
     header = ["law", "tau_y (Pa)", "K (Pa s^n)", "n",
               *(f"RMS log10, {curve.name} ({curve.temperature:.1f} C; {len(points.shear_rate)} points in the band)"
                 for curve, points in zip(curves, inside, strict=True))]
-    rows = [[label.replace("_", " "), *(f"{v:.3g}" for v in law),
+    rows = [[in_words(label), *(f"{v:.3g}" for v in law),
              *(f"{errors[curve.name][label]:.3f}" for curve in curves)] for label, law in laws.items()]
     return table_tag(header, rows), errors
 
@@ -106,7 +112,7 @@ def candidates_table(diagnoses: dict[str, dict], curves: dict[str, list[FlowCurv
     information criterion from the base fit, of the held-out losses (between fitted frames; the last frames), the
     refit's flow index and, where the material has rheometer ``curves``, its largest RMS log10 error against them
     over the diagnosis' shear-rate band; "-" where the candidate was not tried (not applicable to the setups). The
-    last row counts, per candidate, the materials whose last frames its refit predicts better by 1 % or more."""
+    last row counts, per candidate, the materials whose last frames its refit predicts better (LAST_FRAMES_GAIN)."""
     names = list(dict.fromkeys(c["effect"] for record in diagnoses.values() for c in record["candidates"]))
 
     def law_text(fit: dict, material: str) -> str:
@@ -129,11 +135,12 @@ def candidates_table(diagnoses: dict[str, dict], curves: dict[str, list[FlowCurv
         for name, candidate in tried.items():
             change = loss_change(record["base"].get("forecast_loss_px"), candidate.get("forecast_loss_px"))
             tried_on[name] += change is not None
-            better[name] += change is not None and change <= -1
+            better[name] += change is not None and change <= LAST_FRAMES_GAIN
         rows.append([material, law_text(record["base"], material),
                      *(cell(tried[n], record, material) if n in tried else "-" for n in names)])
-    rows.append(["last frames predicted 1 % better or more", "", *(f"{better[n]} of {tried_on[n]}" for n in names)])
-    return table_tag(["material", "base fit", *(n.replace("_", " ") for n in names)], rows)
+    rows.append([f"last frames predicted {-LAST_FRAMES_GAIN:.0f} % better or more", "",
+                 *(f"{better[n]} of {tried_on[n]}" for n in names)])
+    return table_tag(["material", "base fit", *(in_words(n) for n in names)], rows)
 
 
 def flow_figure(law: tuple[float, float, float], samples: np.ndarray, band: tuple[float, float] | None,
