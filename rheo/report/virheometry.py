@@ -17,6 +17,7 @@ from rheo.report.fit import flow_curve_figure
 from rheo.report.html import table_tag
 
 LAST_FRAMES_GAIN = -1.0  # %: a refit whose last frames' loss falls at least this far predicts them better
+
 # pairs of Setup.cuboid_corners() that differ along one axis
 CUBOID_EDGES = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)]
 
