@@ -18,6 +18,7 @@ from rheo.config import workflow_settings
 from rheo.io import write_json_atomic
 
 HELD_OUT_GAIN = -30.0  # %: a held-out loss that falls at least this far counts as predicted better
+LAST_FRAMES_GAIN = -1.0  # %: the real dam breaks' summary counts a refit this much better on the last frames
 TOP1_SHOWN = 0.8  # the share of the cases whose recording shows the effect that must be named correctly
 
 
@@ -38,8 +39,9 @@ def loss_change(before: float | None, after: float | None) -> float | None:
     return None if not before or after is None else 100 * (after / before - 1)
 
 
-def down(change_pct: float | None) -> bool:
-    return change_pct is not None and change_pct <= HELD_OUT_GAIN
+def down(change_pct: float | None, gain: float = HELD_OUT_GAIN) -> bool:
+    """Whether a loss' change (%) is a fall of at least ``gain`` (a negative %)."""
+    return change_pct is not None and change_pct <= gain
 
 
 def suite_scores(records: list[dict], candidates: Sequence[str]) -> dict:

@@ -15,7 +15,7 @@ from rheo.diagnose.candidates import CANDIDATES, OPEN_DRAG
 from rheo.diagnose.scores import loss_change
 from rheo.experiments.dam_break import OPEN_LAYER
 from rheo.physics.optional import open_drag_rate
-from rheo.report.html import figure_tag, image_tag, table_tag
+from rheo.report.html import figure_tag, image_tag, in_words, table_tag
 from rheo.report.virheometry import held_out_changes, overlay_grid
 
 
@@ -54,7 +54,7 @@ def profiles_figure(candidates: list[dict], base_loss: float):
             ax.set_xscale("log")
         ax.set_xticks(values, [f"{v:.2g}" for v in values], rotation=45)
         ax.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
-        ax.set_title(f"{c['effect'].replace('_', ' ')} ({c['delta_criterion']:+.1f})", fontsize=8)
+        ax.set_title(f"{in_words(c['effect'])} ({c['delta_criterion']:+.1f})", fontsize=8)
         ax.set_xlabel(candidate.parameter + (f" ({candidate.unit})" if candidate.unit else ""), fontsize=7)
         ax.tick_params(labelsize=7)
     for ax in axes.flat[len(shown):]:

@@ -32,6 +32,11 @@ def figure_tag(fig, caption: str) -> str:
     return image_tag(buf.getvalue(), "png", caption)
 
 
+def in_words(name: str) -> str:
+    """An identifier (an effect's or a law's name) with spaces: floor_friction, floor friction."""
+    return name.replace("_", " ")
+
+
 def link_tag(href: str, text: str) -> str:
     return f"<a href='{html.escape(href)}'>{html.escape(text)}</a>"
 

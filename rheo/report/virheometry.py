@@ -10,13 +10,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
-from rheo.diagnose.scores import loss_change
+from rheo.diagnose.scores import LAST_FRAMES_GAIN, down, loss_change
 from rheo.experiments.rheometer import RESULT_KEYS, FlowCurve, log_rms_error
 from rheo.experiments.virheometry import Setup
 from rheo.report.fit import flow_curve_figure
-from rheo.report.html import table_tag
-
-LAST_FRAMES_GAIN = -1.0  # %: a refit whose last frames' loss falls at least this far predicts them better
+from rheo.report.html import in_words, table_tag
 
 # pairs of Setup.cuboid_corners() that differ along one axis
 CUBOID_EDGES = [(0, 1), (2, 3), (4, 5), (6, 7), (0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7)]
@@ -80,11 +78,6 @@ def overlay_grid(lines: list[tuple[np.ndarray, np.ndarray, Callable[[int], str]]
     return fig
 
 
-def in_words(name: str) -> str:
-    """An effect's or a law's name with spaces (floor_friction: floor friction)."""
-    return name.replace("_", " ")
-
-
 def rheometer_comparison(laws: dict[str, tuple[float, float, float]], curves: list[FlowCurve],
                          band: tuple[float, float]) -> tuple[str, dict[str, dict[str, float]]]:
     """The RMS of log10(tau_law / tau_rheometer) of every law (label: tau_y, K, n) against every rheometer curve
@@ -136,7 +129,7 @@ def candidates_table(diagnoses: dict[str, dict], curves: dict[str, list[FlowCurv
         for name, candidate in tried.items():
             change = loss_change(record["base"].get("forecast_loss_px"), candidate.get("forecast_loss_px"))
             tried_on[name] += change is not None
-            better[name] += change is not None and change <= LAST_FRAMES_GAIN
+            better[name] += down(change, LAST_FRAMES_GAIN)
         rows.append([material, law_text(record["base"], material),
                      *(cell(tried[n], record, material) if n in tried else "-" for n in names)])
     rows.append([f"last frames predicted {-LAST_FRAMES_GAIN:.0f} % better or more", "",

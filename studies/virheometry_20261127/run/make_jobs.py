@@ -1,6 +1,8 @@
-"""Job specs of the real materials' diagnoses split by candidate (run in the run's checkout):
-make_jobs.py DEVICE MATERIAL:CANDIDATE ... (CANDIDATE "*": all)."""
+"""Job specs of the real materials' diagnoses (run in the run's checkout): make_jobs.py DEVICE ITEM ..., an item
+MATERIAL:CANDIDATE split by candidate (CANDIDATE "*": all), one process each; an item MATERIAL the whole diagnosis
+under the tolerant replay (tolerant_diagnose.py) on all cores."""
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -16,9 +18,21 @@ held_out = {**config["virheometry"]["simulation"], "held_out_every": config["dia
 bingham = {**config["virheometry"]["fit"], "flow_index": 1.0}
 jobs = []
 for item in sys.argv[2:]:
-    m, which = item.split(":")
+    m, _, which = item.partition(":")
     setups = [p.name for p in setup_folders(config["virheometry"]["data"], m)]
     folder = f"results/virheometry/{m}/diagnosis"
+    if not which:
+        jobs.append({"name": m, "script": "tolerant_diagnose.py",
+                     "input": {"fit": f"results/virheometry/{m}/fit_bingham/params.json",
+                               "setups": [f"results/virheometry/setups/{s}/setup.json" for s in setups],
+                               "masks": [f"results/virheometry/setups/{s}/masks.npz" for s in setups],
+                               "rheometer": config["virheometry"]["rheometer"].get(m, [])},
+                     "output": {"diagnosis": f"{folder}/diagnosis.json", "maps": f"{folder}/maps.png",
+                                "report": f"{folder}/report.html"},
+                     "log": [f"logs/virheometry/{m}/diagnose.log"], "threads": os.cpu_count(),
+                     "params": {"settings": config["diagnose"], "fit_settings": bingham, "simulation": held_out,
+                                "title": f"{m}: what the Bingham model leaves out"}, "config": config})
+        continue
     for c in config["diagnose"]["candidates"] if which == "*" else which.split(","):
         jobs.append({"name": f"{m}.{c}", "script": "candidate.py",
                      "input": {"fit": f"results/virheometry/{m}/fit_bingham/params.json",
