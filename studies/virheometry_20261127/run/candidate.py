@@ -1,5 +1,6 @@
 """One candidate's profile of a diagnosis, under the diagnosis' own evaluation key, into its own evaluation log
-(merged with the others' afterwards: the log is indexed by phase and point, each candidate has its own phase)."""
+(merged with the others' afterwards: the log is indexed by phase and point, each candidate has its own phase),
+which starts from the diagnosis' stored evaluations where there are any."""
 import json
 import shutil
 from pathlib import Path
@@ -24,14 +25,14 @@ key = inputs_key([settings, smk.params.fit_settings, smk.params.simulation],
                  [smk.input.fit, *smk.input.setups, *smk.input.masks])
 shared = Path(smk.input.evaluations)
 own = Path(smk.output.done).with_suffix(".evaluations.json")
-if not own.is_file():
+if not own.is_file() and shared.is_file():
     stored = json.loads(shared.read_text())
     if stored["key"] != key:
         raise SystemExit(f"{shared}: key {stored['key']} is not this run's {key}")
     shutil.copy(shared, own)
-evaluations = EvaluationLog(own, key)
-if json.loads(own.read_text())["key"] != key:
+if own.is_file() and json.loads(own.read_text())["key"] != key:
     raise SystemExit(f"{own}: stored key differs")
+evaluations = EvaluationLog(own, key)
 count = [0]
 
 

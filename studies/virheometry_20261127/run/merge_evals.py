@@ -12,15 +12,17 @@ def point(r):
 
 for folder in map(Path, sys.argv[1:]):
     shared_path = folder / "diagnosis.evaluations.json"
-    shared = json.loads(shared_path.read_text())
+    logs = sorted(f for f in folder.glob("*.evaluations.json") if f != shared_path)
+    if shared_path.is_file():
+        shared = json.loads(shared_path.read_text())
+    else:  # a diagnosis begun split by candidate
+        shared = {"key": json.loads(logs[0].read_text())["key"], "records": [], "seconds": 0.0}
     base_seconds = shared.get("base_seconds", shared["seconds"])
     index = {point(r): r for r in shared["records"]}
     records = list(shared["records"])
     extra = 0.0
     differences = []
-    for f in sorted(folder.glob("*.evaluations.json")):
-        if f == shared_path:
-            continue
+    for f in logs:
         d = json.loads(f.read_text())
         assert d["key"] == shared["key"], f
         extra += max(d["seconds"] - d.get("base_seconds", base_seconds), 0.0)
