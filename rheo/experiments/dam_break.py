@@ -20,6 +20,7 @@ import torch
 
 from rheo.experiments.virheometry import CONTAINER_RIM, Setup, StaticBox, container_silhouette
 from rheo.physics import Box, Floor, HerschelBulkley, OptionalPhysics, Simulator, dam_break_gate, kernels
+from rheo.physics.optional import OPEN_LAYER
 from rheo.physics.simulator import DEFAULT_CFL, Trajectory
 from rheo.vision.cameras import Camera
 
@@ -27,7 +28,6 @@ WALL_CELLS = 2  # the least thickness of a wall, in grid cells
 GRAVITY = 9.81  # m/s^2, as in the recordings' setup (981 cm/s^2)
 # walls grown by this fraction of a cell: a node on a wall's face belongs to the wall, not to a rounding error
 FACE_MARGIN = 1e-3
-OPEN_LAYER = 0.25  # the open drag's floor layer, a share of the material's height
 
 
 class DamBreakError(ValueError):

@@ -15,6 +15,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 OPEN_DRAG_TERMS = ("floor early", "floor late", "bulk early", "bulk late")
+OPEN_LAYER = 0.25  # the open drag's floor layer in a dam break, a share of the material's height
 
 
 @dataclass(frozen=True)

@@ -13,8 +13,7 @@ import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES, OPEN_DRAG
 from rheo.diagnose.scores import loss_change
-from rheo.experiments.dam_break import OPEN_LAYER
-from rheo.physics.optional import open_drag_rate
+from rheo.physics.optional import OPEN_LAYER, open_drag_rate
 from rheo.report.html import figure_tag, image_tag, in_words, table_tag
 from rheo.report.virheometry import held_out_changes, overlay_grid
 
