@@ -4,7 +4,6 @@ import os
 import runpy
 import subprocess
 import sys
-import tarfile
 import time
 from pathlib import Path
 from types import SimpleNamespace
@@ -72,14 +71,12 @@ def main(jobs_file: str, deadline_s: float, out: str, first_wait_s: float) -> No
         if p.poll() is None:
             p.kill()
         print(name, "exit", p.returncode, flush=True)
-    with tarfile.open(Path(out, "fits.tar"), "w", format=tarfile.PAX_FORMAT) as tar:
-        folders = {Path(next(iter(spec["output"].values()))).parent for spec in jobs}
-        for folder in sorted(folders):
-            if folder.is_dir():
-                tar.add(folder)
-        for spec in jobs:
-            tar.add(spec["log"][0]) if Path(spec["log"][0]).is_file() else None
-        tar.add("stderr")
+    # GNU tar's POSIX format keeps modification times to the nanosecond, which the evaluations' keys hold at the
+    # run's commit (an output of one job, a fit's params.json, is the input of the next)
+    folders = {Path(next(iter(spec["output"].values()))).parent for spec in jobs}
+    packed = [str(f) for f in sorted(folders) if f.is_dir()]
+    packed += [spec["log"][0] for spec in jobs if Path(spec["log"][0]).is_file()] + ["stderr"]
+    subprocess.run(["tar", "--format=posix", "-cf", str(Path(out, "fits.tar")), *packed], check=True)
     print(f"done after {time.time() - start:.0f} s", flush=True)
 
 
