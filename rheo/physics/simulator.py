@@ -15,6 +15,7 @@ import contextlib
 import dataclasses
 import logging
 import math
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,6 +50,18 @@ def time_step(frame_dt: float, dx: float, material: Material, max_speed: float, 
         dt_max = min(dt_max, math.sqrt(material.density * dx**3 / (2 * math.pi * surface_tension)))
     substeps = max(1, math.ceil(frame_dt / dt_max - 1e-9))
     return frame_dt / substeps, substeps
+
+
+# Warp's default device and its CUDA context guard are shared by the threads of a process, so two threads that
+# simulate at once (a fit's searches side by side) would switch each other's device mid-rollout
+_WARP_LOCK = threading.RLock()
+
+
+@contextlib.contextmanager
+def _on_device(device: str):
+    """Warp's default device set to ``device`` for the block, one thread of the process at a time."""
+    with _WARP_LOCK, wp.ScopedDevice(device):
+        yield
 
 
 def _host(arr: wp.array) -> torch.Tensor:
@@ -295,7 +308,7 @@ class Simulator:
         kernel_mat = material.kernel_vector(mat)
         for attempt in range(self.max_halvings + 1):
             try:
-                with wp.ScopedDevice(self.device):
+                with _on_device(self.device):
                     run = _Run(self, material, dt, substeps, frames, particle_volume, progress, steps_per_transfer)
                     x, v, C, F = _RolloutFunction.apply(run, x0 - origin, v0, kernel_mat, bnd)
                 break
@@ -599,6 +612,6 @@ class _RolloutFunction(torch.autograd.Function):
 
     @staticmethod
     def backward(ctx, gx, gv, gC, gF):
-        with wp.ScopedDevice(ctx.run.sim.device):
+        with _on_device(ctx.run.sim.device):
             gx0, gv0, gmat, gbnd = ctx.run.backward((gx, gv, gC, gF))
         return None, gx0, gv0, gmat, gbnd

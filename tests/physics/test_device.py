@@ -1,6 +1,8 @@
 """Where rollouts run: the device choice, checkpointed chunks, and a GPU's rollouts against the CPU's (run only where
 Warp sees a CUDA GPU)."""
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import pytest
 import torch
@@ -65,6 +67,19 @@ def test_gpu_matches_cpu():
     x32_cpu, _ = _rollout("cpu", dtype=torch.float32)
     x32_gpu, _ = _rollout("cuda", dtype=torch.float32)
     assert float((x32_gpu - x32_cpu).abs().max()) < 1e-4 * (1 / 16)
+
+
+@pytest.mark.parametrize("device", [pytest.param("cuda", marks=needs_cuda), "cpu"])
+def test_rollouts_in_threads_match_one_after_another(device):
+    """Rollouts that threads of one process run at once (a fit's searches side by side) give the trajectories and
+    gradients of the same rollouts one after another, on the GPU and on the CPU (where a GPU is present, Warp's
+    default device is the GPU's)."""
+    alone = [_rollout(device) for _ in range(4)]
+    with ThreadPoolExecutor(4) as threads:
+        together = list(threads.map(lambda _: _rollout(device), range(4)))
+    for (x, grad), (x_alone, grad_alone) in zip(together, alone, strict=True):
+        torch.testing.assert_close(x, x_alone, rtol=0, atol=1e-9)
+        torch.testing.assert_close(grad, grad_alone, rtol=1e-6, atol=1e-9 * float(grad_alone.abs().max()))
 
 
 def _objectives():
