@@ -12,15 +12,12 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import nnls
 
+from rheo.experiments.effects import Effects
 from rheo.physics.optional import OPEN_DRAG_TERMS
-
-if TYPE_CHECKING:  # the simulator's modules load when a search first unpacks a point, not with the names
-    from rheo.experiments.dam_break import Effects
 
 BAND_POINTS = 9  # shear rates, log-spaced over the band, at which a rung's law matches the last rung's stresses
 BREAKDOWN_STRAINS = (1.0, 3.0, 10.0)  # plastic strains whose breakdown a thixotropy rung's starts restore
@@ -179,8 +176,6 @@ class Law:
 
     def unpack(self, x, effects: Effects | None = None) -> tuple[dict[str, float], Effects]:
         """The law and the effects (``effects``, none by default, with the candidate's added) of a search vector."""
-        from rheo.experiments.dam_break import Effects
-
         values = np.exp(np.asarray(x[:2 if self.n is not None else 3], dtype=float))
         law = {"tau_y": values[0], "K": values[1], "n": self.n if self.n is not None else values[2]}
         effects = effects or Effects()

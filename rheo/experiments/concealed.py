@@ -20,7 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rheo.experiments.dam_break import Effects, dam_break_scene
+from rheo.experiments.dam_break import dam_break_scene
+from rheo.experiments.effects import Effects
 from rheo.experiments.virheometry import Setup, StaticBox, container_silhouette
 from rheo.experiments.virtual_lab import lab_mask
 from rheo.physics import HerschelBulkley

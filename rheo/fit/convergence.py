@@ -50,8 +50,8 @@ logger = logging.getLogger(__name__)
 
 Law = tuple[float, float, float]  # tau_y (Pa), K (Pa s^n), n
 # the sources a simulated dam break and its loss depend on: a change to any of them recomputes stored evaluations
-ENGINE_SOURCES = ("rheo/physics", "rheo/experiments/dam_break.py", "rheo/experiments/virheometry.py",
-                  "rheo/fit/dam_break.py", "rheo/render/silhouette.py")
+ENGINE_SOURCES = ("rheo/physics", "rheo/experiments/dam_break.py", "rheo/experiments/effects.py",
+                  "rheo/experiments/virheometry.py", "rheo/fit/dam_break.py", "rheo/render/silhouette.py")
 QUANTITIES = {"loss_px": "loss (px)", "outflow": "share of the material past the gate",
               "front_m": "front past the gate (m)"}
 KEYED_SETTINGS = ("particles_per_cell", "mu", "lam", "max_offset", "transfer_cfl")  # in every stored record's key

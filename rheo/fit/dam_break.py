@@ -22,7 +22,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from rheo.diagnose.candidates import Law
-from rheo.experiments.dam_break import DamBreakScene, Effects, dam_break_scene
+from rheo.experiments.dam_break import DamBreakScene, dam_break_scene
+from rheo.experiments.effects import Effects
 from rheo.experiments.virheometry import CONTAINER_RIM, Setup, container_silhouette
 from rheo.fit.search import EvaluateMany, simplex_search
 from rheo.physics import HerschelBulkley

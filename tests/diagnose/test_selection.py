@@ -9,7 +9,7 @@ import pytest
 from rheo.diagnose.candidates import BREAKDOWN_STRAINS, CANDIDATES, Law, matched_law
 from rheo.diagnose.dam_break import MIN_LAW_STEP, law_steps
 from rheo.diagnose.selection import Refit, choose, finalists_refitted, information_criterion, profile_refit
-from rheo.experiments.dam_break import Effects
+from rheo.experiments.effects import Effects
 from rheo.fit.dam_break import stress_split
 from rheo.fit.search import EvaluationLog
 

@@ -7,7 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from rheo.experiments.dam_break import FACE_MARGIN, DamBreakError, Effects, dam_break_scene, floor_footprint, runout
+from rheo.experiments.dam_break import FACE_MARGIN, dam_break_scene, floor_footprint, runout
+from rheo.experiments.effects import DamBreakError, Effects
 from rheo.physics import HerschelBulkley, OptionalPhysics, kernels
 from tests.conftest import DEPTH, HEIGHT, WIDTH
 

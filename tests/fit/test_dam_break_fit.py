@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 from rheo.diagnose.candidates import CANDIDATES, Law
-from rheo.experiments.dam_break import Effects, dam_break_scene
+from rheo.experiments.dam_break import dam_break_scene
+from rheo.experiments.effects import Effects
 from rheo.fit.dam_break import (
     OFFSET_STEP,
     DamBreakTarget,
