@@ -15,6 +15,7 @@ import contextlib
 import dataclasses
 import logging
 import math
+import os
 import threading
 from dataclasses import dataclass
 
@@ -55,6 +56,14 @@ def time_step(frame_dt: float, dx: float, material: Material, max_speed: float, 
 # Warp's default device and its CUDA context guard are shared by the threads of a process, so two threads that
 # simulate at once (a fit's searches side by side) would switch each other's device mid-rollout
 _WARP_LOCK = threading.RLock()
+
+
+def _new_lock() -> None:
+    global _WARP_LOCK
+    _WARP_LOCK = threading.RLock()
+
+
+os.register_at_fork(after_in_child=_new_lock)  # a worker forked while a thread simulates starts unlocked
 
 
 @contextlib.contextmanager

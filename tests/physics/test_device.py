@@ -1,6 +1,8 @@
 """Where rollouts run: the device choice, checkpointed chunks, and a GPU's rollouts against the CPU's (run only where
 Warp sees a CUDA GPU)."""
 
+import multiprocessing
+import threading
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -10,7 +12,7 @@ import warp as wp
 
 from rheo.fit.parallel import Evaluator
 from rheo.geometry.sampling import cylinder
-from rheo.physics import Floor, HerschelBulkley, OptionalPhysics, SimulationError, Simulator
+from rheo.physics import Floor, HerschelBulkley, OptionalPhysics, SimulationError, Simulator, simulator
 from rheo.physics.device import resolve_device, set_default_device
 
 wp.init()
@@ -80,6 +82,32 @@ def test_rollouts_in_threads_match_one_after_another(device):
     for (x, grad), (x_alone, grad_alone) in zip(together, alone, strict=True):
         torch.testing.assert_close(x, x_alone, rtol=0, atol=1e-9)
         torch.testing.assert_close(grad, grad_alone, rtol=1e-6, atol=1e-9 * float(grad_alone.abs().max()))
+
+
+def test_a_process_forked_while_a_thread_simulates_can_simulate():
+    """A worker forked while another thread of its parent holds the simulator's device lock does not inherit it
+    held: its rollout finishes."""
+    held, release = threading.Event(), threading.Event()
+
+    def simulate_until_released() -> None:
+        with simulator._on_device("cpu"):
+            held.set()
+            release.wait()
+
+    thread = threading.Thread(target=simulate_until_released)
+    thread.start()
+    held.wait()
+    try:
+        child = multiprocessing.get_context("fork").Process(target=_rollout, args=("cpu",))
+        child.start()
+        child.join(120)
+        hung = child.is_alive()
+        if hung:
+            child.kill()
+    finally:
+        release.set()
+        thread.join()
+    assert not hung and child.exitcode == 0
 
 
 def _objectives():
