@@ -1,6 +1,7 @@
 """Run stage scripts as Snakemake would (from job specs) side by side until a deadline; pack their outputs."""
 import json
 import os
+import re
 import runpy
 import subprocess
 import sys
@@ -37,7 +38,7 @@ def main(jobs_file: str, deadline_s: float, out: str, first_wait_s: float) -> No
     launch(0)  # the first compiles the kernels; the others load them from the cache
     first_log = Path(jobs[0]["log"][0])
     while time.time() - start < first_wait_s:
-        if first_log.is_file() and "evaluation 1 (" in first_log.read_text():
+        if first_log.is_file() and re.search(r"evaluation 1\b", first_log.read_text()):  # a fit's or a diagnosis'
             break
         if procs[jobs[0]["name"]].poll() is not None:
             break
