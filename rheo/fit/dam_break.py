@@ -134,20 +134,16 @@ class DamBreakTarget:
         frames = len(self.masks)
         # the whole material's silhouette is drawn; the shear rates are the simulated half's (its mirror's are equal)
         positions = self.scene.positions(trajectory)
-        drawn, to_drawn = {}, {}
+        drawn = {}
 
         def simulated(step: int) -> np.ndarray:
             if step not in drawn:
                 drawn[step] = skin(self.setup.camera, positions[step], self.scene.spacing) | self.container
             return drawn[step]
 
-        def distance(step: int, k: int) -> float:  # a step is compared with several frames as the offset moves
-            if step not in to_drawn:
-                to_drawn[step] = distance_to(simulated(step))
-            return boundary_distance(simulated(step), self.masks[k], self.to_mask[k], to_drawn[step])
-
         starts = range(self.first_offset, self.offsets + 1)
-        table = np.array([[distance(start + k * self.frame_steps, k) for k in range(frames)] for start in starts])
+        table = np.array([[boundary_distance(simulated(start + k * self.frame_steps), self.masks[k], self.to_mask[k])
+                           for k in range(frames)] for start in starts])
         best_row = int(np.argmin(table[:, self.fitted].mean(axis=1)))
         best, distances = starts[best_row], table[best_row]
         chosen = [simulated(best + k * self.frame_steps) for k in range(frames)]

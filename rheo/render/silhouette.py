@@ -63,15 +63,11 @@ def distance_to(mask: np.ndarray) -> np.ndarray:
     return cv2.distanceTransform((~mask).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
 
 
-def boundary_distance(simulated: np.ndarray, mask: np.ndarray, to_mask: np.ndarray,
-                      to_simulated: np.ndarray | None = None) -> float:
+def boundary_distance(simulated: np.ndarray, mask: np.ndarray, to_mask: np.ndarray) -> float:
     """Symmetric mean boundary distance (px): half the mean distance of the simulated silhouette's pixels to the
-    mask (``to_mask``: its ``distance_to`` map) plus half that of the mask's pixels to the simulated silhouette
-    (``to_simulated``: its map, computed here when not given)."""
+    mask (``to_mask``: its ``distance_to`` map) plus half that of the mask's pixels to the simulated silhouette."""
     to_mask_mean = to_mask[simulated].mean() if simulated.any() else to_mask.max()
-    if to_simulated is None and mask.any():
-        to_simulated = distance_to(simulated)
-    to_simulated_mean = to_simulated[mask].mean() if mask.any() else 0.0
+    to_simulated_mean = distance_to(simulated)[mask].mean() if mask.any() else 0.0
     return 0.5 * (float(to_mask_mean) + float(to_simulated_mean))
 
 
