@@ -14,6 +14,8 @@ changed engine recomputes.
     python -m rheo.fit.convergence --material Lotion --grids 8 12 16 --cfl 0.4 0.8 --out results/bench/Lotion.json
     python -m rheo.fit.convergence --material Lotion --grids 24 32 48 --device cuda --out results/bench/Lotion_cuda.json
     python -m rheo.fit.convergence --material Lotion --grids 24 32 --lam 1e5 --device cuda --out results/bench/lam.json
+    python -m rheo.fit.convergence --material Lotion --setups ref_Lotion_7.0_7.0_2 --grids 16 24 32 48 --cfl 0.8 \
+        --law 14.8,0.792,1 --workers 1 --out results/bench/Lotion_7cm.json
 """
 
 from __future__ import annotations
@@ -365,6 +367,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--law", type=law, action="append", default=[], help="tau_y,K,n (repeatable)")
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
     parser.add_argument("--lam", type=modulus, help="Lame's lambda (Pa) in place of the config's")
+    parser.add_argument("--setups", nargs="+", help="the setups' folder names to study (default: all the material's)")
     parser.add_argument("--config", type=Path, default=WORKFLOW_CONFIG)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--device", choices=DEVICES, default="cpu", help="cuda: one simulation at a time on the GPU")
@@ -378,7 +381,14 @@ def main(argv: list[str] | None = None) -> None:
     if not laws:
         parser.error(f"{args.material}: no law to simulate (give --law; no rheometer curves)")
     simulation = config["simulation"] if args.lam is None else {**config["simulation"], "lam": args.lam}
-    setups = [read_setup(f, config["scale"]) for f in setup_folders(config["data"], args.material)]
+    folders = setup_folders(config["data"], args.material)
+    if args.setups:
+        unknown = set(args.setups) - {f.name for f in folders}
+        if unknown:
+            parser.error(f"{args.material} has no setup {', '.join(sorted(unknown))} (its setups: "
+                         f"{', '.join(f.name for f in folders)})")
+        folders = [f for f in folders if f.name in args.setups]
+    setups = [read_setup(f, config["scale"]) for f in folders]
     cases = study_cases(setups, laws, args.grids, args.cfl or [simulation["cfl"]],
                         (simulation["cells_per_height"], simulation["cells_across"]))
     store = EvaluationStore(args.out.with_suffix(".evaluations.json"), engine_fingerprint())

@@ -143,3 +143,12 @@ def test_grids_laws_and_moduli_are_parsed_or_refused_with_the_text():
     for text in ("0", "-1e4", "nan", "inf", "stiff"):
         with pytest.raises(ArgumentTypeError, match=f"'{text}'"):
             modulus(text)
+
+
+def test_a_setup_the_material_lacks_is_refused_with_the_setups_it_has(tmp_path, capsys):
+    out = tmp_path / "study.json"
+    with pytest.raises(SystemExit):
+        convergence.main(["--material", "Lotion", "--setups", "ref_Lotion_9.9_9.9_1", "--grids", "8",
+                          "--out", str(out)])
+    error = capsys.readouterr().err
+    assert "ref_Lotion_9.9_9.9_1" in error and "ref_Lotion_7.0_7.0_2" in error and not out.exists()
