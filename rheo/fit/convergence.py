@@ -16,12 +16,15 @@ changed engine recomputes.
     python -m rheo.fit.convergence --material Lotion --grids 24 32 --lam 1e5 --device cuda --out results/bench/lam.json
     python -m rheo.fit.convergence --material Lotion --setups ref_Lotion_7.0_7.0_2 --grids 16 24 32 48 --cfl 0.8 \
         --law 14.8,0.792,1 --workers 1 --out results/bench/Lotion_7cm.json
+    python -m rheo.fit.convergence --material Lotion --grids 12 --cfl 0.2 0.8 \
+        --store results/bench/Lotion.evaluations.json --out results/bench/Lotion_cfl.json
 """
 
 from __future__ import annotations
 
 import argparse
 import ast
+import fcntl
 import hashlib
 import io
 import itertools
@@ -156,7 +159,8 @@ def _targets(scale: float) -> Targets:
 
 
 class EvaluationStore:
-    """Measured simulations in a JSON file, by case and engine fingerprint, written atomically after each."""
+    """Measured simulations in a JSON file, by case and engine fingerprint, written atomically after each. Studies
+    running side by side may share one: each write merges the records the others wrote, under a lock."""
 
     def __init__(self, path: Path, fingerprint: str) -> None:
         self.path, self.fingerprint = Path(path), fingerprint
@@ -186,8 +190,13 @@ class EvaluationStore:
         return None
 
     def put(self, case: Case, simulation: dict, record: dict) -> None:
-        self.records[self.key(case, simulation)] = record
-        write_json_atomic(self.path, self.records)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        with open(self.path.with_name(self.path.name + ".lock"), "w") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if self.path.is_file():
+                self.records |= json.loads(self.path.read_text())
+            self.records[self.key(case, simulation)] = record
+            write_json_atomic(self.path, self.records)
 
 
 def run(cases: Sequence[Case], simulation: dict, scale: float, store: EvaluationStore, workers: int) -> list[dict]:
@@ -366,6 +375,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--cfl", type=float, nargs="+", help="time steps, as fractions of a cell's crossing time")
     parser.add_argument("--law", type=law, action="append", default=[], help="tau_y,K,n (repeatable)")
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
+    parser.add_argument("--store", type=Path, help="simulations to replay and extend, which studies may share "
+                        "(default: beside --out, its .evaluations.json)")
     parser.add_argument("--lam", type=modulus, help="Lame's lambda (Pa) in place of the config's")
     parser.add_argument("--setups", nargs="+", help="the setups' folder names to study (default: all the material's)")
     parser.add_argument("--config", type=Path, default=WORKFLOW_CONFIG)
@@ -391,7 +402,7 @@ def main(argv: list[str] | None = None) -> None:
     setups = [read_setup(f, config["scale"]) for f in folders]
     cases = study_cases(setups, laws, args.grids, args.cfl or [simulation["cfl"]],
                         (simulation["cells_per_height"], simulation["cells_across"]))
-    store = EvaluationStore(args.out.with_suffix(".evaluations.json"), engine_fingerprint())
+    store = EvaluationStore(args.store or args.out.with_suffix(".evaluations.json"), engine_fingerprint())
     rows = run(cases, simulation, config["scale"], store, args.workers)
     default_h = default_cells(setups, simulation)
     write_json_atomic(args.out, {"material": args.material, "device": device_name(), "laws": laws,

@@ -124,6 +124,18 @@ def test_every_simulation_setting_given_is_part_of_a_stored_records_key(tmp_path
     assert store.key(case, {**SIMULATION, "cfl": 0.2}) == sticky  # the case's own step, not the config's
 
 
+def test_studies_sharing_a_store_keep_each_others_simulations(tmp_path):
+    path = tmp_path / "shared.evaluations.json"
+    coarse, fine = study_cases([read_setup(SHARED / "virheometry" / "ref_Lotion_2.5_5.1_1", scale=0.5)],
+                               {"given": (10.0, 1.0, 1.0)}, [4, 7], [0.8], (6, 8))[:2]
+    first, second = EvaluationStore(path, "engine"), EvaluationStore(path, "engine")  # both opened on no file
+    first.put(coarse, SIMULATION, {"loss_px": 1.0})
+    second.put(fine, SIMULATION, {"loss_px": 2.0})
+    later = EvaluationStore(path, "engine")
+    assert later.get(coarse, SIMULATION) == {"loss_px": 1.0} and later.get(fine, SIMULATION) == {"loss_px": 2.0}
+    assert second.get(coarse, SIMULATION) == {"loss_px": 1.0}  # merged at its write
+
+
 def test_the_engine_text_leaves_out_comments_and_docstrings_only():
     source = 'def f(x):\n    """Doc, mu <= 1 \u00b5."""\n    y = "# kept"  # dropped \u2264\n\n    return x + y\n'
     assert code_text(source) == 'def f(x):\n    y = "# kept"\n    return x + y'
