@@ -191,7 +191,7 @@ class EvaluationStore:
 
     def put(self, case: Case, simulation: dict, record: dict) -> None:
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        with open(self.path.with_name(self.path.name + ".lock"), "w") as lock:
+        with open(self.path.with_name(f".{self.path.name}.lock"), "w") as lock:  # hidden: not archived
             fcntl.flock(lock, fcntl.LOCK_EX)
             if self.path.is_file():
                 self.records |= json.loads(self.path.read_text())
