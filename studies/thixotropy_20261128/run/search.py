@@ -1,0 +1,83 @@
+"""Lotion's rheometer law (K and n from its four curves) with a yield stress that breaks down while the material
+yields, tau_y(t) = tau_r + (tau_y0 - tau_r) exp(-lam t_yielding), tau_r the rheometer's yield stress: tau_y0 and lam
+searched (Nelder-Mead in log units) against both dam-break setups at the default settings, beside the Bingham fit's
+law and the rheometer's law as they are. Every evaluation is stored in ``--store``, so a stopped search goes on.
+
+    PYTHONPATH=. python studies/thixotropy_20261128/run/search.py --store studies/thixotropy_20261128/evaluations.json
+"""
+
+import argparse
+import json
+import logging
+from functools import cache, partial
+from pathlib import Path
+
+import numpy as np
+
+from rheo.config import WORKFLOW_CONFIG, workflow_settings
+from rheo.experiments.effects import Effects
+from rheo.experiments.virheometry import read_setup, setup_folders
+from rheo.fit.convergence import rheometer_law
+from rheo.fit.dam_break import DamBreakTarget, target
+from rheo.fit.parallel import Evaluator
+from rheo.fit.search import EvaluationLog, simplex_search
+from rheo.physics.optional import OptionalPhysics
+
+BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
+START = np.log([15.0, 10.0])  # tau_y0 (Pa), lam (1/s): the best of the grid at the former interval
+BOX = (np.log([5.0, 0.5]), np.log([80.0, 300.0]))
+
+
+@cache
+def _target(folder: str, scale: float, simulation: str) -> DamBreakTarget:
+    return target(read_setup(folder, scale), json.loads(simulation))
+
+
+def _losses(folder: str, scale: float, simulation: str, task: np.ndarray) -> float:
+    """The loss on one setup of the law tau_y, K, n whose yield stress breaks down at lam (none at 0) to floor."""
+    tau_y, K, n, lam, floor = task
+    physics = OptionalPhysics(thixotropy=lam, thixotropy_floor=floor, thixotropy_exponent=0.0)
+    return _target(folder, scale, simulation).compare(tau_y, K, n, Effects(physics=physics)).loss
+
+
+def _objectives(folders: list[str], scale: float, simulation: str) -> dict:
+    return {folder: partial(_losses, folder, scale, simulation) for folder in folders}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--store", type=Path, required=True)
+    parser.add_argument("--evaluations", type=int, default=40)
+    parser.add_argument("--workers", type=int, default=2)
+    args = parser.parse_args()
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
+    config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
+    simulation, scale = config["simulation"], config["scale"]
+    rheometer = rheometer_law(config["rheometer"]["Lotion"], config["convergence"]["rheometer_band"])
+    folders = [str(f) for f in setup_folders(config["data"], "Lotion")]
+    log = EvaluationLog(args.store, json.dumps({"simulation": simulation, "rheometer": list(rheometer)}))
+    with Evaluator(partial(_objectives, folders, scale, json.dumps(simulation)), args.workers) as evaluator:
+
+        def losses(law: tuple, lam: float = 0.0, floor: float = 0.0) -> dict:
+            per_setup = evaluator.map([(f, np.array([*law, lam, floor])) for f in folders])
+            return {"loss": float(np.mean(per_setup)), "setups": dict(zip(map(str, folders), per_setup, strict=True))}
+
+        def thixotropic(x: np.ndarray, phase: str) -> float:
+            tau_y0, lam = np.exp(x)
+            loss = log.evaluate_many(lambda points: [losses((tau_y0, *rheometer[1:]), lam, rheometer[0] / tau_y0)],
+                                     [x], phase)[0]
+            logging.info("tau_y0 %.2f Pa, lam %.3g 1/s: %.5f px", tau_y0, lam, loss)
+            return loss
+
+        for name, law in (("bingham", BINGHAM), ("rheometer", rheometer)):
+            log.evaluate_many(lambda points, law=law: [losses(law)], [np.log(law)], name)
+        best, loss = simplex_search(thixotropic, START, 0.5, args.evaluations, "search", box=BOX)
+    for record in log.records:
+        print(record["phase"], np.round(np.exp(record["x"]), 3).tolist(), round(record["loss"], 5),
+              [round(v, 5) for v in record["setups"].values()])
+    tau_y0, lam = np.exp(best)
+    print(f"best: tau_y0 {tau_y0:.2f} Pa, lam {lam:.3g} 1/s, {loss:.5f} px")
+
+
+if __name__ == "__main__":
+    main()
