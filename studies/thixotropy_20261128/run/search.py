@@ -1,7 +1,8 @@
 """Lotion's rheometer law (K and n from its four curves) with a yield stress that breaks down while the material
 yields, tau_y(t) = tau_r + (tau_y0 - tau_r) exp(-lam t_yielding), tau_r the rheometer's yield stress: tau_y0 and lam
 searched (Nelder-Mead in log units) against both dam-break setups at the default settings, beside the Bingham fit's
-law and the rheometer's law as they are. Every evaluation is stored in ``--store``, so a stopped search goes on.
+law and the rheometer's law as they are. Every evaluation is stored in ``--store`` under the engine's fingerprint and
+the settings, so a stopped search goes on and a changed engine evaluates anew.
 
     PYTHONPATH=. python studies/thixotropy_20261128/run/search.py --store studies/thixotropy_20261128/evaluations.json
 """
@@ -17,7 +18,7 @@ import numpy as np
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.effects import Effects
 from rheo.experiments.virheometry import read_setup, setup_folders
-from rheo.fit.convergence import rheometer_law
+from rheo.fit.convergence import engine_fingerprint, rheometer_law
 from rheo.fit.dam_break import DamBreakTarget, target
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, simplex_search
@@ -55,7 +56,8 @@ def main() -> None:
     simulation, scale = config["simulation"], config["scale"]
     rheometer = rheometer_law(config["rheometer"]["Lotion"], config["convergence"]["rheometer_band"])
     folders = [str(f) for f in setup_folders(config["data"], "Lotion")]
-    log = EvaluationLog(args.store, json.dumps({"simulation": simulation, "rheometer": list(rheometer)}))
+    log = EvaluationLog(args.store, json.dumps({"engine": engine_fingerprint(), "simulation": simulation,
+                                                "rheometer": list(rheometer)}))
     with Evaluator(partial(_objectives, folders, scale, json.dumps(simulation)), args.workers) as evaluator:
 
         def losses(law: tuple, lam: float = 0.0, floor: float = 0.0) -> dict:
