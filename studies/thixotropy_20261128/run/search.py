@@ -62,7 +62,8 @@ def main() -> None:
 
         def losses(law: tuple, lam: float = 0.0, floor: float = 0.0) -> dict:
             per_setup = evaluator.map([(f, np.array([*law, lam, floor])) for f in folders])
-            return {"loss": float(np.mean(per_setup)), "setups": dict(zip(map(str, folders), per_setup, strict=True))}
+            names = [Path(f).name for f in folders]
+            return {"loss": float(np.mean(per_setup)), "setups": dict(zip(names, per_setup, strict=True))}
 
         def thixotropic(x: np.ndarray, phase: str) -> float:
             tau_y0, lam = np.exp(x)
