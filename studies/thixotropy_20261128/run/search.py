@@ -5,6 +5,10 @@ law and the rheometer's law as they are. Every evaluation is stored in ``--store
 the settings, so a stopped search goes on and a changed engine evaluates anew.
 
     PYTHONPATH=. python studies/thixotropy_20261128/run/search.py --store studies/thixotropy_20261128/evaluations.json
+
+On finer cells (cells over each setup's height and across its channel, as the convergence study gives them), on a GPU:
+
+    PYTHONPATH=. python studies/thixotropy_20261128/run/search.py --cells 24 3 --device cuda --store fine.json
 """
 
 import argparse
@@ -22,6 +26,7 @@ from rheo.fit.convergence import engine_fingerprint, rheometer_law
 from rheo.fit.dam_break import DamBreakTarget, target
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, simplex_search
+from rheo.physics.device import DEVICES, set_default_device
 from rheo.physics.optional import OptionalPhysics
 
 BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
@@ -50,10 +55,16 @@ def main() -> None:
     parser.add_argument("--store", type=Path, required=True)
     parser.add_argument("--evaluations", type=int, default=40)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--cells", type=int, nargs=2, metavar=("HEIGHT", "ACROSS"),
+                        help="cells over the height and across the channel (default: the fit's grid)")
+    parser.add_argument("--device", choices=DEVICES, default="cpu")
     args = parser.parse_args()
+    set_default_device(args.device)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     simulation, scale = config["simulation"], config["scale"]
+    if args.cells:
+        simulation = {**simulation, "cells_per_height": args.cells[0], "cells_across": args.cells[1]}
     rheometer = rheometer_law(config["rheometer"]["Lotion"], config["convergence"]["rheometer_band"])
     folders = [str(f) for f in setup_folders(config["data"], "Lotion")]
     log = EvaluationLog(args.store, json.dumps({"engine": engine_fingerprint(), "simulation": simulation,
