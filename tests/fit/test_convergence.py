@@ -136,6 +136,25 @@ def test_studies_sharing_a_store_keep_each_others_simulations(tmp_path):
     assert second.get(coarse, SIMULATION) == {"loss_px": 1.0}  # merged at its write
 
 
+def test_the_command_line_uses_the_store_given_or_the_one_beside_its_output(tmp_path, monkeypatch):
+    class Stop(Exception):
+        pass
+
+    used = []
+
+    def stop(cases, simulation, scale, store, workers):
+        used.append(store.path)
+        raise Stop
+
+    monkeypatch.setattr(convergence, "run", stop)
+    argv = ["--material", "Lotion", "--setups", "ref_Lotion_2.5_5.1_1", "--grids", "8",
+            "--out", str(tmp_path / "a.json")]
+    for extra in ([], ["--store", str(tmp_path / "shared.json")]):
+        with pytest.raises(Stop):
+            convergence.main(argv + extra)
+    assert used == [tmp_path / "a.evaluations.json", tmp_path / "shared.json"]
+
+
 def test_the_engine_text_leaves_out_comments_and_docstrings_only():
     source = 'def f(x):\n    """Doc, mu <= 1 \u00b5."""\n    y = "# kept"  # dropped \u2264\n\n    return x + y\n'
     assert code_text(source) == 'def f(x):\n    y = "# kept"\n    return x + y'
