@@ -66,15 +66,16 @@ def main() -> None:
     if args.cells:
         simulation = {**simulation, "cells_per_height": args.cells[0], "cells_across": args.cells[1]}
     rheometer = rheometer_law(config["rheometer"]["Lotion"], config["convergence"]["rheometer_band"])
-    folders = [str(f) for f in setup_folders(config["data"], "Lotion")]
+    folders = setup_folders(config["data"], "Lotion")
     log = EvaluationLog(args.store, json.dumps({"engine": engine_fingerprint(), "simulation": simulation,
                                                 "rheometer": list(rheometer)}))
-    with Evaluator(partial(_objectives, folders, scale, json.dumps(simulation)), args.workers) as evaluator:
+    paths = [str(f) for f in folders]
+    with Evaluator(partial(_objectives, paths, scale, json.dumps(simulation)), args.workers) as evaluator:
 
         def losses(law: tuple, lam: float = 0.0, floor: float = 0.0) -> dict:
-            per_setup = evaluator.map([(f, np.array([*law, lam, floor])) for f in folders])
-            names = [Path(f).name for f in folders]
-            return {"loss": float(np.mean(per_setup)), "setups": dict(zip(names, per_setup, strict=True))}
+            per_setup = evaluator.map([(path, np.array([*law, lam, floor])) for path in paths])
+            return {"loss": float(np.mean(per_setup)),
+                    "setups": {f.name: loss for f, loss in zip(folders, per_setup, strict=True)}}
 
         def thixotropic(x: np.ndarray, phase: str) -> float:
             tau_y0, lam = np.exp(x)
