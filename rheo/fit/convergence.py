@@ -377,6 +377,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", type=Path, required=True, help="JSON file to write")
     parser.add_argument("--store", type=Path, help="simulations to replay and extend, which studies may share "
                         "(default: beside --out, its .evaluations.json)")
+    parser.add_argument("--mu", type=modulus, help="shear modulus (Pa) in place of the config's")
     parser.add_argument("--lam", type=modulus, help="Lame's lambda (Pa) in place of the config's")
     parser.add_argument("--setups", nargs="+", help="the setups' folder names to study (default: all the material's)")
     parser.add_argument("--config", type=Path, default=WORKFLOW_CONFIG)
@@ -391,7 +392,7 @@ def main(argv: list[str] | None = None) -> None:
         laws["rheometer"] = rheometer_law(config["rheometer"][args.material], config["convergence"]["rheometer_band"])
     if not laws:
         parser.error(f"{args.material}: no law to simulate (give --law; no rheometer curves)")
-    simulation = config["simulation"] if args.lam is None else {**config["simulation"], "lam": args.lam}
+    simulation = config["simulation"] | {k: v for k, v in (("mu", args.mu), ("lam", args.lam)) if v is not None}
     folders = setup_folders(config["data"], args.material)
     if args.setups:
         unknown = set(args.setups) - {f.name for f in folders}

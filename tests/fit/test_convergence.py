@@ -155,6 +155,25 @@ def test_the_command_line_uses_the_store_given_or_the_one_beside_its_output(tmp_
     assert used == [tmp_path / "a.evaluations.json", tmp_path / "shared.json"]
 
 
+def test_the_moduli_given_replace_the_configs_in_every_simulation(tmp_path, monkeypatch):
+    simulated = []
+
+    def keep(cases, simulation, scale, store, workers):
+        simulated.append(simulation)
+        return []
+
+    monkeypatch.setattr(convergence, "run", keep)
+    monkeypatch.setattr(convergence, "summarize", lambda rows, default_h: {})
+    argv = ["--material", "Lotion", "--setups", "ref_Lotion_2.5_5.1_1", "--grids", "8",
+            "--out", str(tmp_path / "a.json")]
+    convergence.main(argv)
+    convergence.main([*argv, "--mu", "1e3"])
+    convergence.main([*argv, "--mu", "50", "--lam", "2e5"])
+    default = simulated[0]
+    assert simulated[1] == {**default, "mu": 1e3}
+    assert simulated[2] == {**default, "mu": 50.0, "lam": 2e5}
+
+
 def test_the_engine_text_leaves_out_comments_and_docstrings_only():
     source = 'def f(x):\n    """Doc, mu <= 1 \u00b5."""\n    y = "# kept"  # dropped \u2264\n\n    return x + y\n'
     assert code_text(source) == 'def f(x):\n    y = "# kept"\n    return x + y'
