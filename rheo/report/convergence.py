@@ -1,9 +1,11 @@
 """The convergence study's page: which law wins at each resolution, each quantity against the cell size with its
-extrapolated limit, the flow over time on every grid, and the time step's effect."""
+extrapolated limit, the flow over time on every grid, the time step's effect, and each law against the recording
+frame by frame."""
 
 from __future__ import annotations
 
 import itertools
+import math
 
 import matplotlib.pyplot as plt
 
@@ -70,6 +72,25 @@ def flow_figure(result: dict, setup: str, cfl: float):
     return fig
 
 
+def frames_figure(result: dict, setup: str, cfl: float):
+    """The material outside the container at each recorded frame, recorded and simulated by each law on the
+    default grid (each at the release time its comparison chose)."""
+    rows = sorted((r for r in result["rows"] if r["setup"] == setup and r["cfl"] == cfl
+                   and math.isclose(r["h_m"], result["default_h_m"][setup])), key=lambda r: r["law"])
+    fig, ax = plt.subplots(figsize=(5, 3.4))
+    recorded = rows[0]["recorded_outflow_px"]
+    frames = range(1, len(recorded) + 1)
+    ax.plot(frames, recorded, "ko", label="recording")
+    for i, row in enumerate(rows):
+        ax.plot(frames, row["outflow_px"], "-", marker=".", color=f"C{i}", label=row["law"])
+    ax.set_xlabel("frame")
+    ax.set_ylabel("pixels outside the container")
+    ax.legend(fontsize=8)
+    ax.set_title(f"{setup}, default grid, cfl {cfl:g}", fontsize=10)
+    fig.tight_layout()
+    return fig
+
+
 def render(result: dict) -> str:
     laws = sorted(result["laws"])
     setups = sorted(result["default_h_m"])
@@ -110,4 +131,8 @@ def render(result: dict) -> str:
     middle = sorted(result["study"]["cfls"])[len(result["study"]["cfls"]) // 2]
     for setup in setups:
         body.append(figure_tag(flow_figure(result, setup, middle), f"{setup}: the flow on every grid"))
+    body.append("<h2>Against the recording, frame by frame</h2><p>Each law on the fit's default grid, timed as "
+                "its comparison with the recording chose.</p>")
+    for setup in setups:
+        body.append(figure_tag(frames_figure(result, setup, middle), f"{setup}: frame by frame"))
     return page(f"{result['material']}: convergence of the simulated dam breaks", "".join(body))

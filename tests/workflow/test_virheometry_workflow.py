@@ -185,7 +185,7 @@ def test_the_convergence_study_writes_its_page_and_resumes_from_its_store(workfl
     assert cells == {"ref_Lotion_2.5_5.1_1": 3, "ref_Lotion_7.0_7.0_2": 2}
     assert len(study["rows"]) == 2 * (3 + 2) and {c["grid"] for c in study["contests"]} == {"4x3", "7x3", "9x3", "4x4"}
     page = (workflow.root / target).read_text()
-    assert page.count("<img") == 4 and "Which law comes closer" in page
+    assert page.count("<img") == 6 and "Which law comes closer" in page and "frame by frame" in page
     rerun = workflow.run(target, "--configfile", "quick.yaml", "-f")
     assert rerun.returncode == 0, rerun.stderr[-3000:]
     log = (workflow.root / "logs/virheometry/Lotion/convergence.log").read_text()
