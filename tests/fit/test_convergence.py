@@ -136,39 +136,33 @@ def test_studies_sharing_a_store_keep_each_others_simulations(tmp_path):
     assert second.get(coarse, SIMULATION) == {"loss_px": 1.0}  # merged at its write
 
 
-def test_the_command_line_uses_the_store_given_or_the_one_beside_its_output(tmp_path, monkeypatch):
-    class Stop(Exception):
-        pass
-
-    used = []
-
-    def stop(cases, simulation, scale, store, workers):
-        used.append(store.path)
-        raise Stop
-
-    monkeypatch.setattr(convergence, "run", stop)
-    argv = ["--material", "Lotion", "--setups", "ref_Lotion_2.5_5.1_1", "--grids", "8",
-            "--out", str(tmp_path / "a.json")]
-    for extra in ([], ["--store", str(tmp_path / "shared.json")]):
-        with pytest.raises(Stop):
-            convergence.main(argv + extra)
-    assert used == [tmp_path / "a.evaluations.json", tmp_path / "shared.json"]
-
-
-def test_the_moduli_given_replace_the_configs_in_every_simulation(tmp_path, monkeypatch):
-    simulated = []
+def run_command_line(monkeypatch, tmp_path: Path, extra_args: list[list[str]]) -> list[tuple[dict, Path]]:
+    """The command line on Lotion's short setup once per list of extra arguments, its simulations stubbed: the
+    settings and the store each run was given."""
+    given = []
 
     def keep(cases, simulation, scale, store, workers):
-        simulated.append(simulation)
+        given.append((simulation, store.path))
         return []
 
     monkeypatch.setattr(convergence, "run", keep)
     monkeypatch.setattr(convergence, "summarize", lambda rows, default_h: {})
     argv = ["--material", "Lotion", "--setups", "ref_Lotion_2.5_5.1_1", "--grids", "8",
             "--out", str(tmp_path / "a.json")]
-    convergence.main(argv)
-    convergence.main([*argv, "--mu", "1e3"])
-    convergence.main([*argv, "--mu", "50", "--lam", "2e5"])
+    for extra in extra_args:
+        convergence.main([*argv, *extra])
+    return given
+
+
+def test_the_command_line_uses_the_store_given_or_the_one_beside_its_output(tmp_path, monkeypatch):
+    given = run_command_line(monkeypatch, tmp_path, [[], ["--store", str(tmp_path / "shared.json")]])
+    used = [store for _, store in given]
+    assert used == [tmp_path / "a.evaluations.json", tmp_path / "shared.json"]
+
+
+def test_the_moduli_given_replace_the_configs_in_every_simulation(tmp_path, monkeypatch):
+    given = run_command_line(monkeypatch, tmp_path, [[], ["--mu", "1e3"], ["--mu", "50", "--lam", "2e5"]])
+    simulated = [simulation for simulation, _ in given]
     default = simulated[0]
     assert simulated[1] == {**default, "mu": 1e3}
     assert simulated[2] == {**default, "mu": 50.0, "lam": 2e5}
