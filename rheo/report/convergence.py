@@ -49,9 +49,13 @@ def refinement_figure(result: dict, setup: str):
     return fig
 
 
+def _rows(result: dict, setup: str, cfl: float) -> list[dict]:
+    return [r for r in result["rows"] if r["setup"] == setup and r["cfl"] == cfl]
+
+
 def flow_figure(result: dict, setup: str, cfl: float):
     """The share of the material past the gate over time, per grid and law, at one step."""
-    rows = [r for r in result["rows"] if r["setup"] == setup and r["cfl"] == cfl]
+    rows = _rows(result, setup, cfl)
     laws = sorted({r["law"] for r in rows})
     cells = sorted({r["h_m"] for r in rows}, reverse=True)
     fig, axes = plt.subplots(1, 2, figsize=(9, 3.4))
@@ -75,8 +79,8 @@ def flow_figure(result: dict, setup: str, cfl: float):
 def frames_figure(result: dict, setup: str, cfl: float):
     """The material outside the container at each recorded frame, recorded and simulated by each law on the
     default grid (each at the release time its comparison chose)."""
-    rows = sorted((r for r in result["rows"] if r["setup"] == setup and r["cfl"] == cfl
-                   and math.isclose(r["h_m"], result["default_h_m"][setup])), key=lambda r: r["law"])
+    rows = sorted((r for r in _rows(result, setup, cfl) if math.isclose(r["h_m"], result["default_h_m"][setup])),
+                  key=lambda r: r["law"])
     fig, ax = plt.subplots(figsize=(5, 3.4))
     recorded = rows[0]["recorded_outflow_px"]
     frames = range(1, len(recorded) + 1)
