@@ -73,6 +73,28 @@ def test_herschel_bulkley_return_solves_the_flow_rule(n, scalar, rel, relax, K):
         assert u == pytest.approx(ref, rel=rel)
 
 
+@pytest.mark.parametrize(("tau_y", "K", "n"), [(4.53, 6.95, 0.47), (14.5, 0.978, 1.0), (2.0, 0.3, 1.6)])
+def test_steady_simple_shear_follows_the_flow_curve(tau_y, K, n):
+    """Sheared at constant rates for five strain units at the slowest (thousands of updates of a finite strain that
+    rotates), the material's shear stress settles on tau_y + K gamma_dot^n; stiff enough that the elastic strain stays
+    small, as the flow curve assumes."""
+    k = kn.build(wp.float64)
+    material = HerschelBulkley(tau_y=tau_y, K=K, n=n, mu=3.0e3, lam=1.0e4)
+    rates = np.array([0.3, 1.0, 3.0, 10.0, 30.0])
+    C = np.zeros((len(rates), 3, 3))
+    C[:, 0, 1] = rates  # v_x = gamma_dot y
+    F, F_next = (wp.array(np.tile(np.eye(3), (len(rates), 1, 1)), dtype=k.mat33) for _ in range(2))
+    tau = wp.zeros(len(rates), dtype=k.mat33)
+    mat = wp.array(material.kernel_vector(material.parameters()).numpy(), dtype=wp.float64)
+    velocity_gradient, dt = wp.array(C, dtype=k.mat33), 1e-3
+    for _ in range(round(5.0 / rates[0] / dt)):
+        wp.launch(k.return_mapping, len(rates), inputs=[F, velocity_gradient, mat, material.model,
+                                                        wp.float64(dt), wp.zeros(len(rates), dtype=wp.float64),
+                                                        wp.float64(0.0), wp.float64(0.0), F_next, tau])
+        F, F_next = F_next, F
+    np.testing.assert_allclose(tau.numpy()[:, 0, 1], tau_y + K * rates**n, rtol=2e-3)
+
+
 def test_plasticine_projects_onto_the_yield_surface():
     material = Plasticine(tau_y=500.0, mu=1.0e4, lam=1.0e4)
     F = np.diag([1.3, 0.9, 1.0 / (1.3 * 0.9)])[None]
