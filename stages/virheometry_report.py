@@ -11,7 +11,7 @@ from rheo.fit.uncertainty import Interval, log_draws, tolerance_level
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import headline, interval_text
 from rheo.report.html import figure_tag, image_tag, page, table_tag
-from rheo.report.virheometry import flow_figure, flow_index_profile_figure, rheometer_comparison
+from rheo.report.virheometry import determined_stress_text, flow_figure, flow_index_profile_figure, rheometer_comparison
 from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -50,6 +50,8 @@ if curves and band is not None:
         log.info("%s: RMS log10 error %.3f over %.3g-%.3g 1/s", name, error["recovered"], *band)
 flow = flow_figure(law, draws, band, curves)
 flow.savefig(smk.output.flow_curve, dpi=110, bbox_inches="tight")
+pinned = determined_stress_text(params, curves)
+pinned = "" if pinned == "-" else f" Where their flow curves agree best over the shear rates reached: {pinned}."
 headline_text = headline({name: params[key] for name, key in RESULT_KEYS.items()}, subject="recordings")
 sections = [("Flow curve", figure_tag(flow, "recovered law, shear stress (Pa) against shear rate (1/s); band: the "
                                             "middle 95 % of the curves of materials drawn within the tolerance "
@@ -60,8 +62,8 @@ sections = [("Flow curve", figure_tag(flow, "recovered law, shear stress (Pa) ag
              + f"<p>Each interval spans the region where a quadratic surface fitted to the losses around the "
              f"estimate stays within the tolerance ({params['tolerance']:.0%}) of its lowest, the parameters' "
              f"trade-offs included, and the evaluated materials within the tolerance of the best (n's also where "
-             f"its profile stays within it, below); an end marked "
-             f"&lt; or &gt; is open (the region goes on past the evaluations' reach). {spread_text(params)}.</p>"
+             f"its profile stays within it, below); an end marked &lt; or &gt; is open (the region goes on past the "
+             f"evaluations' reach). {spread_text(params)}.{pinned}</p>"
              + f"<p>Shear rates reached (5th-95th percentile of the moving particles): {reached}. "
              f"Runtime {params['runtime_s'] / 60:.1f} min.</p>"),
             ("Setups", table_tag(["setup", "first frame after release (s)", "loss (px)", "mean IoU",

@@ -11,7 +11,7 @@ from rheo.experiments.rheometer import RESULT_KEYS, read_flow_curve
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import interval_text
 from rheo.report.html import figure_tag, link_tag, page, table_tag
-from rheo.report.virheometry import candidates_table, rheometer_comparison, summary_figure
+from rheo.report.virheometry import candidates_table, determined_stress_text, rheometer_comparison, summary_figure
 from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -49,6 +49,7 @@ for material, path, report, diagnosis in zip(smk.params.materials, smk.input.par
         log.info("%s against %s: RMS log10 error %.3f", material, name, error["fit"])
     cells += ["none" if band is None else f"{band[0]:.2g}-{band[1]:.2g}",
               ", ".join(f"{e['fit']:.3f}" for e in errors.values()) or "-",
+              determined_stress_text(fit, curves),
               "yes" if fit["within_tolerance"]["ridge"] else "no", f"{fit['runtime_s'] / 60:.1f}"]
     if diagnosis is not None:
         records[material] = read_json(diagnosis)
@@ -59,7 +60,8 @@ for material, path, report, diagnosis in zip(smk.params.materials, smk.input.par
     laws[material] = (law, None if band is None else tuple(band))
     links.append(link_tag(str(Path(report).relative_to(output.parent)), material))
 header = ["material", "tau_y (Pa) [tolerance]", "K (Pa s^n) [tolerance]", "n [tolerance]", "mean IoU per setup",
-          "shear rates reached (1/s)", "RMS log10(stress / rheometer's) over them, per curve", "ridge",
+          "shear rates reached (1/s)", "RMS log10(stress / rheometer's) over them, per curve",
+          "the stress the laws within the tolerance agree on best", "ridge",
           "runtime (min, on the machines that ran its evaluations)"]
 if diagnoses:
     header += ["diagnosis: what the Bingham model leaves out",

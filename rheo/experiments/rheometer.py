@@ -28,6 +28,11 @@ class FlowCurve:
         keep = (self.shear_rate >= band[0]) & (self.shear_rate <= band[1])
         return FlowCurve(self.name, self.shear_rate[keep], self.stress[keep], self.temperature)
 
+    def stress_at(self, rate: float) -> float:
+        """The stress (Pa) at ``rate`` (1/s), interpolated between the points in log-log (held at the ends)."""
+        order = np.argsort(self.shear_rate)
+        return float(np.exp(np.interp(np.log(rate), np.log(self.shear_rate[order]), np.log(self.stress[order]))))
+
 
 def read_flow_curve(path: str | Path) -> FlowCurve:
     """The points of an exported flow curve (rows whose first field is the point number)."""

@@ -137,6 +137,29 @@ class Tolerated:
         return widened
 
 
+@dataclass(frozen=True)
+class DeterminedStress:
+    """Where the flow curves of several laws agree best: the shear rate (1/s) and their lowest and highest stress
+    there (Pa)."""
+
+    rate: float
+    low: float
+    high: float
+
+
+def best_determined_stress(laws: np.ndarray, band: Sequence[float], samples: int = 200) -> DeterminedStress | None:
+    """The shear rate within ``band`` (1/s) at which the Herschel-Bulkley ``laws`` (rows tau_y, K, n) spread least in
+    stress (highest over lowest), and their stresses there; None where the laws have fewer than three flow indices
+    (two flow curves cross somewhere whatever they are, so where they agree says nothing)."""
+    laws = np.atleast_2d(np.asarray(laws, dtype=float))
+    if len(np.unique(laws[:, 2].round(6))) < 3:
+        return None
+    rates = np.geomspace(band[0], band[1], samples)
+    stress = laws[:, :1] + laws[:, 1:2] * rates ** laws[:, 2:3]
+    best = int(np.argmin(stress.max(axis=0) / stress.min(axis=0)))
+    return DeterminedStress(float(rates[best]), float(stress[:, best].min()), float(stress[:, best].max()))
+
+
 def tolerance_level(loss: float, tolerance: float) -> float:
     """The highest loss within ``tolerance`` (relative) of ``loss``."""
     return (1.0 + tolerance) * loss

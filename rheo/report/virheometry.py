@@ -13,6 +13,7 @@ import numpy as np
 from rheo.diagnose.scores import LAST_FRAMES_GAIN, down, loss_change
 from rheo.experiments.rheometer import RESULT_KEYS, FlowCurve, log_rms_error
 from rheo.experiments.virheometry import Setup
+from rheo.fit.uncertainty import best_determined_stress
 from rheo.report.fit import flow_curve_figure
 from rheo.report.html import in_words, table_tag
 
@@ -92,6 +93,21 @@ def rheometer_comparison(laws: dict[str, tuple[float, float, float]], curves: li
     rows = [[in_words(label), *(f"{v:.3g}" for v in law),
              *(f"{errors[curve.name][label]:.3f}" for curve in curves)] for label, law in laws.items()]
     return table_tag(header, rows), errors
+
+
+def determined_stress_text(fit: dict, curves: list[FlowCurve]) -> str:
+    """Where, over the shear rates the flow reached, the flow curves of a fit's (params.json) evaluated laws within
+    the tolerance agree best: their stresses, the rate and how many laws, and the rheometer's stresses there where
+    there are ``curves``; "-" without a band or where ``best_determined_stress`` finds nothing."""
+    band = fit["shear_rate_band_per_s"]
+    found = None if band is None else best_determined_stress(fit["within_tolerance"]["laws"], band)
+    if found is None:
+        return "-"
+    text = f"{found.low:.3g}-{found.high:.3g} Pa at {found.rate:.2g} 1/s, {len(fit['within_tolerance']['laws'])} laws"
+    if curves:
+        measured = [curve.stress_at(found.rate) for curve in curves]
+        text += f" (rheometer {min(measured):.3g}-{max(measured):.3g} Pa)"
+    return text
 
 
 def held_out_changes(candidate: dict, base: dict, words: tuple[str, str] = ("between", "last")) -> list[str]:

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rheo.experiments.rheometer import RheometerError, fit_herschel_bulkley, log_rms_error, read_flow_curve
+from rheo.experiments.rheometer import FlowCurve, RheometerError, fit_herschel_bulkley, log_rms_error, read_flow_curve
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "rheometer"
 
@@ -26,6 +26,16 @@ def test_the_published_fit_of_the_23C_curve_is_found_again():
     # a law 10^0.1 times the fit is 0.1 off
     assert log_rms_error(tau_y * 10**0.1, K * 10**0.1, n, curve) == pytest.approx(np.sqrt(
         np.mean((0.1 + np.log10((tau_y + K * curve.shear_rate**n) / curve.stress)) ** 2)))
+
+
+def test_the_stress_between_points_follows_a_power_law_segment():
+    """At a measured rate the measured stress (the 23 C file's 25.346 Pa at 10 1/s); between two points the power law
+    through both, whatever their order in the file; beyond the ends, the end's stress."""
+    assert read_flow_curve(DATA / "Lotion_20230114_1204_23C.csv").stress_at(10.0) == pytest.approx(25.346)
+    rates = np.array([10.0, 1.0, 100.0])
+    curve = FlowCurve("power law", rates, 3.0 * rates**0.4, 20.0)
+    assert curve.stress_at(2.5) == pytest.approx(3.0 * 2.5**0.4, rel=1e-12)
+    assert curve.stress_at(0.1) == pytest.approx(3.0)
 
 
 def test_a_file_without_points_is_refused(tmp_path):

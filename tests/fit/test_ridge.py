@@ -4,7 +4,7 @@ against each other, against the analytic region of a quadratic loss."""
 import numpy as np
 import pytest
 
-from rheo.fit.uncertainty import Interval, tolerated
+from rheo.fit.uncertainty import Interval, best_determined_stress, tolerated
 
 MINIMUM = np.array([1.0, 0.5, -0.7])
 RIDGE = np.array([1.0, -1.0, 0.0]) / np.sqrt(2.0)  # log tau_y up, log K down: the flat direction
@@ -72,3 +72,24 @@ def test_an_end_that_a_material_within_the_tolerance_holds_at_the_box_is_open():
     assert widened["K"].open == (False, True) and not widened["K"].determined
     assert widened["n"].open == (False, False)  # no material within the tolerance at n's box
     assert found.widen(narrow, names)["tau_y"].open == (False, False)  # no box given, no end known at it
+
+
+def laws_through(stress: float, rate: float, indices: list[float], yield_stresses: list[float]) -> np.ndarray:
+    """Herschel-Bulkley laws (tau_y, K, n) whose flow curves all pass through ``stress`` at ``rate``."""
+    return np.array([[tau_y, (stress - tau_y) / rate**n, n] for tau_y, n in zip(yield_stresses, indices, strict=True)])
+
+
+def test_laws_that_share_one_point_of_their_flow_curves_agree_best_there():
+    laws = laws_through(20.0, 6.0, [0.5, 0.8, 1.0, 1.4], [3.0, 9.0, 14.0, 17.0])
+    found = best_determined_stress(laws, (0.5, 30.0))
+    assert found.rate == pytest.approx(6.0, rel=0.025)  # the rates sampled lie 2.2 % apart
+    # there they all carry about the common stress (a sampled rate's, so off by up to the curves' slope times 2.2 %)
+    assert (found.low, found.high) == pytest.approx((20.0, 20.0), rel=0.025) and found.high / found.low < 1.002
+    # outside the band the laws spread more the further from their common point: the nearer end
+    assert best_determined_stress(laws, (10.0, 30.0)).rate == pytest.approx(10.0)
+
+
+def test_laws_of_fewer_than_three_flow_indices_say_nothing():
+    laws = laws_through(20.0, 6.0, [0.5, 1.0, 1.0], [3.0, 14.0, 15.0])  # any two flow curves cross somewhere
+    assert best_determined_stress(laws, (0.5, 30.0)) is None
+    assert best_determined_stress(laws[:1], (0.5, 30.0)) is None

@@ -5,7 +5,11 @@ twelve given fits, and the fits' page without the diagnoses."""
 import csv
 import glob
 import json
+import re
 import shutil
+
+import numpy as np
+import pytest
 
 from rheo.experiments.rheometer import log_rms_error, read_flow_curve
 from tests.conftest import table_cells
@@ -80,6 +84,16 @@ def held_out(fit: str, i: int) -> dict:
     return {"held_out_loss_px": None if i > 8 else between, "forecast_loss_px": None if i > 8 else last * (1 + i / 10)}
 
 
+# laws (tau_y, K, n) of three flow indices whose flow curves all pass through 20 Pa at 5 1/s
+LAWS_THROUGH_20_PA_AT_5 = [[3.0, 17.0 / 5.0**0.5, 0.5], [14.0, 6.0 / 5.0, 1.0], [9.0, 11.0 / 5.0**0.8, 0.8]]
+
+
+def power_law_between(curve, rate: float, low: float, high: float) -> float:
+    """A flow curve's stress at ``rate`` on the power law through its points at the rates ``low`` and ``high``."""
+    at_low, at_high = (curve.stress[curve.shear_rate == r][0] for r in (low, high))
+    return at_low * (rate / low) ** (np.log(at_high / at_low) / np.log(high / low))
+
+
 def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
     materials = sorted({p.name.split("_")[1] for p in (workflow.root.parent / "shared/data/virheometry").glob("ref_*")})
     for i, material in enumerate(materials):
@@ -91,7 +105,8 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
                     "interval_open": [False, False]}
         (fit_dir / "params.json").write_text(json.dumps({
             **law, "setups": {"a": {"silhouette_iou": [0.9, 0.96]}, "b": {"silhouette_iou": [0.98]}},
-            "shear_rate_band_per_s": [0.1 * (i + 1), 20.0], "within_tolerance": {"ridge": i == 5},
+            "shear_rate_band_per_s": [0.1 * (i + 1), 20.0],
+            "within_tolerance": {"ridge": i == 5, "laws": LAWS_THROUGH_20_PA_AT_5[:3 if i % 2 == 0 else 2]},
             "runtime_s": 60.0 * (i + 1)}))
         (fit_dir.parent / "report.html").write_text(f"<html>{material}</html>")
         (fit_dir.parent / "diagnosis").mkdir()
@@ -129,10 +144,20 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
         assert len(curves) == (4 if material == "Lotion" else 0)
         assert cells[6] == (", ".join(f"{log_rms_error(*law, c.within((0.1 * (i + 1), 20.0))):.3f}" for c in curves)
                             or "-")
-        assert cells[7] == ("yes" if i == 5 else "no") and cells[8] == f"{i + 1:.1f}"  # ridge, runtime (min)
+        # where the laws within the tolerance agree best: three flow indices through 20 Pa at 5 1/s; two say nothing
+        if i % 2:
+            assert cells[7] == "-"
+        else:
+            low, high, rate, rheometer = re.fullmatch(
+                r"(\S+)-(\S+) Pa at (\S+) 1/s, 3 laws(?: \(rheometer (\S+)-\S+ Pa\))?", cells[7]).groups()
+            assert [float(low), float(high), float(rate)] == pytest.approx([20.0, 20.0, 5.0], rel=0.03)
+            if curves:  # the lowest of the curves there, on the power law through their points at 3.98 and 6.31 1/s
+                assert float(rheometer) == pytest.approx(min(power_law_between(c, 5.0, 3.98, 6.31) for c in curves),
+                                                         rel=0.01)
+        assert cells[8] == ("yes" if i == 5 else "no") and cells[9] == f"{i + 1:.1f}"  # ridge, runtime (min)
         # the diagnosis: verdict, held-out losses (before / after where the refit changed them), the refit's error
         # against the rheometer, runtime (min)
-        assert cells[9:] == [f"verdict {i}", "0.02 / 0.01; 0.04" if i == 0 else "0.02; 0.04",
+        assert cells[10:] == [f"verdict {i}", "0.02 / 0.01; 0.04" if i == 0 else "0.02; 0.04",
                              "0.030, 0.030" if i == 0 else "-", f"{10 * (i + 1)}"]
         assert f"<a href='{material}/report.html'>{material}</a>" in page
         assert f"<a href='{material}/diagnosis/report.html'>{material}</a>" in page
@@ -165,7 +190,7 @@ def test_the_summary_tables_every_materials_fit_and_links_its_page(workflow):
     run = workflow.run("results/virheometry/fits.html", "--allowed-rules", "virheometry_fits")
     assert run.returncode == 0, run.stderr[-3000:]
     fits = (workflow.root / "results/virheometry/fits.html").read_text()
-    assert [table_cells(r) for r in fits.split("<tr>")[2:]] == [table_cells(r)[:9] for r in rows]
+    assert [table_cells(r) for r in fits.split("<tr>")[2:]] == [table_cells(r)[:10] for r in rows]
     assert "diagnosis" not in fits
     assert fits.count("<img") == 1 and "<a href='Lotion/report.html'>Lotion</a>" in fits
 
