@@ -1,5 +1,6 @@
 """virheometry_summary: every material's recovered law in one table (values, intervals, IoU, shear-rate band, error
-against its rheometer's curves where there are some, runtime), what its diagnosis found the Bingham model leaves
+against its rheometer's curves where there are some, the stress its laws within the tolerance agree on best,
+runtime), what its diagnosis found the Bingham model leaves
 out and what each candidate effect did to the law (where the rule gives the diagnoses), and one plot of all flow
 curves, with a link to each material's page."""
 
