@@ -1,0 +1,79 @@
+"""Which shear rate each of Lotion's setups reads: three laws of its joint fit's flow-index profile that fit both
+setups within the tolerance (n 0.55, 1 and 1.4), each scaled by the factor (stress times a) that fits one setup
+best, at the default settings; where over that setup's shear rates the three best-scaled flow curves agree best
+(``best_determined_stress``) is where the setup pins the stress. Each simulation's loss and shear-rate band are
+written to ``--out`` under the engine's fingerprint, so a stopped run goes on and a finished one replays.
+
+    PYTHONPATH=. python studies/setup_pins_20261128/run/pins.py --out studies/setup_pins_20261128/losses.json
+"""
+
+import argparse
+import json
+import logging
+import math
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+from rheo.config import WORKFLOW_CONFIG, workflow_settings
+from rheo.experiments.virheometry import read_setup, setup_folders
+from rheo.fit.convergence import engine_fingerprint
+from rheo.fit.dam_break import DamBreakTarget, shear_rate_band, target
+from rheo.fit.uncertainty import best_determined_stress
+from rheo.io import write_json_atomic
+
+# Lotion's joint fit at the default settings: its flow-index profile's laws at n 0.55, 1 and 1.4 (docs/real-data.md)
+SHAPES = {"n 0.55": (2.4576, 6.5717, 0.55), "n 1": (14.4528, 0.97793, 1.0), "n 1.4": (17.2573, 0.20308, 1.4)}
+LOG_SCALE = 0.35  # the scales searched: exp(-0.35) to exp(0.35)
+SCALE_TOLERANCE = 0.015  # in log
+
+
+def best_scale(compared: DamBreakTarget, label: str, law: tuple[float, float, float], records: dict,
+               save) -> tuple[float, dict]:
+    """The scale of ``law`` that fits ``compared`` best, and its record (loss, shear-rate band)."""
+    tau_y, K, n = law
+
+    def loss(log_scale: float) -> float:
+        name = f"{label} {log_scale:.6f}"
+        if name not in records:
+            scale = math.exp(log_scale)
+            comparison = compared.compare(scale * tau_y, scale * K, n)
+            records[name] = {"loss_px": comparison.loss, "band_per_s": shear_rate_band([comparison])}
+            logging.info("%s: %.5f px", name, comparison.loss)
+            save()
+        return records[name]["loss_px"]
+
+    found = minimize_scalar(loss, bounds=(-LOG_SCALE, LOG_SCALE), method="bounded",
+                            options={"xatol": SCALE_TOLERANCE})
+    return math.exp(found.x), records[f"{label} {found.x:.6f}"]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args()
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
+    config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
+    key = engine_fingerprint()
+    stored = json.loads(args.out.read_text()) if args.out.is_file() else {}
+    records = stored.get(key, {})
+
+    def save() -> None:
+        write_json_atomic(args.out, {**stored, key: records})
+    for folder in setup_folders(config["data"], "Lotion"):
+        compared = target(read_setup(folder, config["scale"]), config["simulation"])
+        scaled, bands = [], []
+        for name, law in SHAPES.items():
+            scale, record = best_scale(compared, f"{folder.name} {name}", law, records, save)
+            scaled.append([scale * law[0], scale * law[1], law[2]])
+            bands.append(record["band_per_s"])
+            print(f"{folder.name} {name}: scale {scale:.3f}, {record['loss_px']:.5f} px")
+        band = (min(b[0] for b in bands), max(b[1] for b in bands))
+        pinned = best_determined_stress(np.array(scaled), band)
+        print(f"{folder.name}: over {band[0]:.2g}-{band[1]:.2g} 1/s the best-scaled laws agree best at "
+              f"{pinned.rate:.2g} 1/s, {pinned.low:.3g}-{pinned.high:.3g} Pa")
+
+
+if __name__ == "__main__":
+    main()
