@@ -158,6 +158,19 @@ def _targets(scale: float) -> Targets:
     return Targets(scale)
 
 
+class StudyRecords(dict):
+    """A study's results by label, kept in a JSON file under the engine's fingerprint beside those stored with other
+    engines, so that a study run again with the same engine replays them; ``save`` writes the file atomically."""
+
+    def __init__(self, path: Path) -> None:
+        self.path, self.fingerprint = Path(path), engine_fingerprint()
+        self.stored = json.loads(self.path.read_text()) if self.path.is_file() else {}
+        super().__init__(self.stored.get(self.fingerprint, {}))
+
+    def save(self) -> None:
+        write_json_atomic(self.path, {**self.stored, self.fingerprint: dict(self)})
+
+
 class EvaluationStore:
     """Measured simulations in a JSON file, by case and engine fingerprint, written atomically after each. Studies
     running side by side may share one: each write merges the records the others wrote, under a lock."""

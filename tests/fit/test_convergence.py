@@ -13,6 +13,7 @@ from rheo.experiments.virheometry import read_setup
 from rheo.fit import convergence
 from rheo.fit.convergence import (
     EvaluationStore,
+    StudyRecords,
     code_text,
     engine_fingerprint,
     grid,
@@ -134,6 +135,21 @@ def test_studies_sharing_a_store_keep_each_others_simulations(tmp_path):
     later = EvaluationStore(path, "engine")
     assert later.get(coarse, SIMULATION) == {"loss_px": 1.0} and later.get(fine, SIMULATION) == {"loss_px": 2.0}
     assert second.get(coarse, SIMULATION) == {"loss_px": 1.0}  # merged at its write
+
+
+def test_a_studys_records_replay_with_the_same_engine_and_keep_those_of_others(tmp_path, monkeypatch):
+    path = tmp_path / "losses.json"
+    records = StudyRecords(path)
+    records["a"] = {"loss_px": 1.0}
+    records.save()
+    assert StudyRecords(path) == {"a": {"loss_px": 1.0}}
+    monkeypatch.setattr(convergence, "engine_fingerprint", lambda: "another engine")
+    other = StudyRecords(path)
+    assert other == {}  # nothing replays under another engine
+    other["a"] = {"loss_px": 2.0}
+    other.save()
+    monkeypatch.undo()
+    assert StudyRecords(path) == {"a": {"loss_px": 1.0}}  # the first engine's records are kept beside
 
 
 def run_command_line(monkeypatch, tmp_path: Path, extra_args: list[list[str]]) -> list[tuple[dict, Path]]:

@@ -7,15 +7,13 @@ losses are written to ``--out`` as it finishes, so a stopped run goes on.
 """
 
 import argparse
-import json
 import logging
 from pathlib import Path
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.virheometry import read_setup, setup_folders
-from rheo.fit.convergence import engine_fingerprint, rheometer_law
+from rheo.fit.convergence import StudyRecords, rheometer_law
 from rheo.fit.dam_break import target
-from rheo.io import write_json_atomic
 
 BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
 SCALES = (0.5, 1.0, 2.0)  # 0.5: the fit's default; 2.0: the PNGs' own 1920 x 1080
@@ -30,9 +28,7 @@ def main() -> None:
     simulation = config["simulation"]
     laws = {"bingham": BINGHAM,
             "rheometer": rheometer_law(config["rheometer"]["Lotion"], config["convergence"]["rheometer_band"])}
-    key = engine_fingerprint()
-    stored = json.loads(args.out.read_text()) if args.out.is_file() else {}
-    records = stored.get(key, {})
+    records = StudyRecords(args.out)
     for folder in setup_folders(config["data"], "Lotion"):
         compared = {scale: target(read_setup(folder, scale), simulation) for scale in SCALES}
         for name, law in laws.items():
@@ -47,7 +43,7 @@ def main() -> None:
                 records[label]["offset_s"][str(scale)] = comparison.offset
                 records[label]["iou"][str(scale)] = comparison.iou.tolist()
                 logging.info("%s at scale %s: %.5f px", label, scale, comparison.loss)
-            write_json_atomic(args.out, {**stored, key: records})
+            records.save()
     for label, record in records.items():
         print(label, {s: round(v, 5) for s, v in record["loss_px"].items()})
 

@@ -8,7 +8,6 @@ written to ``--out`` under the engine's fingerprint, so a stopped run goes on an
 """
 
 import argparse
-import json
 import logging
 import math
 from pathlib import Path
@@ -18,10 +17,9 @@ from scipy.optimize import minimize_scalar
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.virheometry import read_setup, setup_folders
-from rheo.fit.convergence import engine_fingerprint
+from rheo.fit.convergence import StudyRecords
 from rheo.fit.dam_break import DamBreakTarget, shear_rate_band, target
 from rheo.fit.uncertainty import best_determined_stress
-from rheo.io import write_json_atomic
 
 # Lotion's joint fit at the default settings: its flow-index profile's laws at n 0.55, 1 and 1.4 (docs/real-data.md)
 SHAPES = {"n 0.55": (2.4576, 6.5717, 0.55), "n 1": (14.4528, 0.97793, 1.0), "n 1.4": (17.2573, 0.20308, 1.4)}
@@ -29,8 +27,8 @@ LOG_SCALE = 0.35  # the scales searched: exp(-0.35) to exp(0.35)
 SCALE_TOLERANCE = 0.015  # in log
 
 
-def best_scale(compared: DamBreakTarget, label: str, law: tuple[float, float, float], records: dict,
-               save) -> tuple[float, dict]:
+def best_scale(compared: DamBreakTarget, label: str, law: tuple[float, float, float],
+               records: StudyRecords) -> tuple[float, dict]:
     """The scale of ``law`` that fits ``compared`` best, and its record (loss, shear-rate band)."""
     tau_y, K, n = law
 
@@ -41,7 +39,7 @@ def best_scale(compared: DamBreakTarget, label: str, law: tuple[float, float, fl
             comparison = compared.compare(scale * tau_y, scale * K, n)
             records[name] = {"loss_px": comparison.loss, "band_per_s": shear_rate_band([comparison])}
             logging.info("%s: %.5f px", name, comparison.loss)
-            save()
+            records.save()
         return records[name]["loss_px"]
 
     found = minimize_scalar(loss, bounds=(-LOG_SCALE, LOG_SCALE), method="bounded",
@@ -55,17 +53,12 @@ def main() -> None:
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
-    key = engine_fingerprint()
-    stored = json.loads(args.out.read_text()) if args.out.is_file() else {}
-    records = stored.get(key, {})
-
-    def save() -> None:
-        write_json_atomic(args.out, {**stored, key: records})
+    records = StudyRecords(args.out)
     for folder in setup_folders(config["data"], "Lotion"):
         compared = target(read_setup(folder, config["scale"]), config["simulation"])
         scaled, bands = [], []
         for name, law in SHAPES.items():
-            scale, record = best_scale(compared, f"{folder.name} {name}", law, records, save)
+            scale, record = best_scale(compared, f"{folder.name} {name}", law, records)
             scaled.append([scale * law[0], scale * law[1], law[2]])
             bands.append(record["band_per_s"])
             print(f"{folder.name} {name}: scale {scale:.3f}, {record['loss_px']:.5f} px")

@@ -10,16 +10,14 @@ the engine's fingerprint, so a stopped run goes on and a finished one replays.
 
 import argparse
 import dataclasses
-import json
 import logging
 from pathlib import Path
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.dam_break import DamBreakScene
 from rheo.experiments.virheometry import read_setup, setup_folders
-from rheo.fit.convergence import engine_fingerprint, rheometer_law
+from rheo.fit.convergence import StudyRecords, rheometer_law
 from rheo.fit.dam_break import target
-from rheo.io import write_json_atomic
 
 BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
 SURFACES = ("floor", "walls", "all")
@@ -48,9 +46,7 @@ def main() -> None:
     simulation = config["simulation"]
     laws = {"bingham": BINGHAM,
             "rheometer": rheometer_law(config["rheometer"]["Lotion"], config["convergence"]["rheometer_band"])}
-    key = engine_fingerprint()
-    stored = json.loads(args.out.read_text()) if args.out.is_file() else {}
-    records = stored.get(key, {})
+    records = StudyRecords(args.out)
     folders = [f for f in setup_folders(config["data"], "Lotion") if not args.setups or f.name in args.setups]
     original = DamBreakScene.colliders
     for case in args.cases:
@@ -69,7 +65,7 @@ def main() -> None:
                     records[label] = {"law": list(law), "loss_px": comparison.loss, "offset_s": comparison.offset,
                                       "per_frame_px": comparison.distances.tolist()}
                     logging.info("%s: %.5f px", label, comparison.loss)
-                    write_json_atomic(args.out, {**stored, key: records})
+                    records.save()
         finally:
             DamBreakScene.colliders = original
     for label, record in records.items():
