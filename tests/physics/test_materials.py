@@ -86,11 +86,10 @@ def test_steady_simple_shear_follows_the_flow_curve(tau_y, K, n):
     F, F_next = (wp.array(np.tile(np.eye(3), (len(rates), 1, 1)), dtype=k.mat33) for _ in range(2))
     tau = wp.zeros(len(rates), dtype=k.mat33)
     mat = wp.array(material.kernel_vector(material.parameters()).numpy(), dtype=wp.float64)
-    velocity_gradient, dt = wp.array(C, dtype=k.mat33), 1e-3
+    velocity_gradient, structure, dt = wp.array(C, dtype=k.mat33), wp.zeros(len(rates), dtype=wp.float64), 1e-3
     for _ in range(round(5.0 / rates[0] / dt)):
-        wp.launch(k.return_mapping, len(rates), inputs=[F, velocity_gradient, mat, material.model,
-                                                        wp.float64(dt), wp.zeros(len(rates), dtype=wp.float64),
-                                                        wp.float64(0.0), wp.float64(0.0), F_next, tau])
+        wp.launch(k.return_mapping, len(rates), inputs=[F, velocity_gradient, mat, material.model, wp.float64(dt),
+                                                        structure, wp.float64(0.0), wp.float64(0.0), F_next, tau])
         F, F_next = F_next, F
     np.testing.assert_allclose(tau.numpy()[:, 0, 1], tau_y + K * rates**n, rtol=2e-3)
 
