@@ -14,14 +14,12 @@ import dataclasses
 import logging
 from pathlib import Path
 
-import numpy as np
-from pins import SHAPES, best_scale
+from pins import SHAPES, read_rate
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.virheometry import read_setup
 from rheo.fit.convergence import StudyRecords
 from rheo.fit.dam_break import shear_rate_band, target
-from rheo.fit.uncertainty import best_determined_stress
 
 CHANNEL = "ref_Lotion_7.0_7.0_2"
 TRUTH = "n 1"  # the shape the recording is made with, at its own scale
@@ -43,19 +41,8 @@ def main() -> None:
         truth = target(filled, simulation | {"min_offset": FIRST_FRAME_S, "max_offset": FIRST_FRAME_S})
         recording = truth.compare(*SHAPES[TRUTH])
         compared = target(dataclasses.replace(filled, masks=list(recording.silhouettes)), simulation)
-        laws, bands = [list(SHAPES[TRUTH])], [shear_rate_band([recording])]
-        for name, law in SHAPES.items():
-            if name == TRUTH:
-                continue
-            scale, record = best_scale(compared, f"{height:g} m {name}", law, records)
-            laws.append([scale * law[0], scale * law[1], law[2]])
-            bands.append(record["band_per_s"])
-            print(f"{height:g} m {name}: scale {scale:.3f}, {record['loss_px']:.5f} px")
-        band = (min(b[0] for b in bands), max(b[1] for b in bands))
-        pinned = best_determined_stress(np.array(laws), band)
-        print(f"{height:g} m: over {band[0]:.2g}-{band[1]:.2g} 1/s the laws agree best at {pinned.rate:.2g} 1/s, "
-              f"{pinned.low:.3g}-{pinned.high:.3g} Pa")
-
+        read_rate(compared, f"{height:g} m", records, [name for name in SHAPES if name != TRUTH],
+                  [(list(SHAPES[TRUTH]), shear_rate_band([recording]))])
 
 if __name__ == "__main__":
     main()

@@ -10,6 +10,7 @@ written to ``--out`` under the engine's fingerprint, so a stopped run goes on an
 import argparse
 import logging
 import math
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +20,7 @@ from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.virheometry import read_setup, setup_folders
 from rheo.fit.convergence import StudyRecords
 from rheo.fit.dam_break import DamBreakTarget, shear_rate_band, target
-from rheo.fit.uncertainty import best_determined_stress
+from rheo.fit.uncertainty import DeterminedStress, best_determined_stress
 
 # Lotion's joint fit at the default settings: its flow-index profile's laws at n 0.55, 1 and 1.4 (docs/real-data.md)
 SHAPES = {"n 0.55": (2.4576, 6.5717, 0.55), "n 1": (14.4528, 0.97793, 1.0), "n 1.4": (17.2573, 0.20308, 1.4)}
@@ -47,6 +48,24 @@ def best_scale(compared: DamBreakTarget, label: str, law: tuple[float, float, fl
     return math.exp(found.x), records[f"{label} {found.x:.6f}"]
 
 
+def read_rate(compared: DamBreakTarget, label: str, records: StudyRecords, names: Sequence[str] = tuple(SHAPES),
+              known: Sequence[tuple[list[float], list[float]]] = ()) -> DeterminedStress:
+    """Where the ``names``' shapes, each scaled to fit ``compared`` best, and the ``known`` laws (each with its
+    shear-rate band) agree best over their shear rates; each step printed."""
+    laws, bands = [law for law, _ in known], [band for _, band in known]
+    for name in names:
+        law = SHAPES[name]
+        scale, record = best_scale(compared, f"{label} {name}", law, records)
+        laws.append([scale * law[0], scale * law[1], law[2]])
+        bands.append(record["band_per_s"])
+        print(f"{label} {name}: scale {scale:.3f}, {record['loss_px']:.5f} px")
+    band = (min(b[0] for b in bands), max(b[1] for b in bands))
+    pinned = best_determined_stress(np.array(laws), band)
+    print(f"{label}: over {band[0]:.2g}-{band[1]:.2g} 1/s the laws agree best at {pinned.rate:.2g} 1/s, "
+          f"{pinned.low:.3g}-{pinned.high:.3g} Pa")
+    return pinned
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, required=True)
@@ -55,18 +74,7 @@ def main() -> None:
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     records = StudyRecords(args.out)
     for folder in setup_folders(config["data"], "Lotion"):
-        compared = target(read_setup(folder, config["scale"]), config["simulation"])
-        scaled, bands = [], []
-        for name, law in SHAPES.items():
-            scale, record = best_scale(compared, f"{folder.name} {name}", law, records)
-            scaled.append([scale * law[0], scale * law[1], law[2]])
-            bands.append(record["band_per_s"])
-            print(f"{folder.name} {name}: scale {scale:.3f}, {record['loss_px']:.5f} px")
-        band = (min(b[0] for b in bands), max(b[1] for b in bands))
-        pinned = best_determined_stress(np.array(scaled), band)
-        print(f"{folder.name}: over {band[0]:.2g}-{band[1]:.2g} 1/s the best-scaled laws agree best at "
-              f"{pinned.rate:.2g} 1/s, {pinned.low:.3g}-{pinned.high:.3g} Pa")
-
+        read_rate(target(read_setup(folder, config["scale"]), config["simulation"]), folder.name, records)
 
 if __name__ == "__main__":
     main()
