@@ -51,7 +51,7 @@ if curves and band is not None:
 flow = flow_figure(law, draws, band, curves)
 flow.savefig(smk.output.flow_curve, dpi=110, bbox_inches="tight")
 pinned = determined_stress_text(params, curves)
-pinned = "" if pinned == "-" else f" Where their flow curves agree best over the shear rates reached: {pinned}."
+pinned = "" if pinned is None else f" Where their flow curves agree best over the shear rates reached: {pinned}."
 headline_text = headline({name: params[key] for name, key in RESULT_KEYS.items()}, subject="recordings")
 sections = [("Flow curve", figure_tag(flow, "recovered law, shear stress (Pa) against shear rate (1/s); band: the "
                                             "middle 95 % of the curves of materials drawn within the tolerance "

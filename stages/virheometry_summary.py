@@ -1,8 +1,7 @@
 """virheometry_summary: every material's recovered law in one table (values, intervals, IoU, shear-rate band, error
 against its rheometer's curves where there are some, the stress its laws within the tolerance agree on best,
-runtime), what its diagnosis found the Bingham model leaves
-out and what each candidate effect did to the law (where the rule gives the diagnoses), and one plot of all flow
-curves, with a link to each material's page."""
+runtime), what its diagnosis found the Bingham model leaves out and what each candidate effect did to the law (where
+the rule gives the diagnoses), and one plot of all flow curves, with a link to each material's page."""
 
 from pathlib import Path
 
@@ -50,7 +49,7 @@ for material, path, report, diagnosis in zip(smk.params.materials, smk.input.par
         log.info("%s against %s: RMS log10 error %.3f", material, name, error["fit"])
     cells += ["none" if band is None else f"{band[0]:.2g}-{band[1]:.2g}",
               ", ".join(f"{e['fit']:.3f}" for e in errors.values()) or "-",
-              determined_stress_text(fit, curves),
+              determined_stress_text(fit, curves) or "-",
               "yes" if fit["within_tolerance"]["ridge"] else "no", f"{fit['runtime_s'] / 60:.1f}"]
     if diagnosis is not None:
         records[material] = read_json(diagnosis)

@@ -15,6 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rheo.experiments.rheometer import herschel_bulkley
+
 Z95 = 1.959964
 # A parameter is determined when its tolerance interval spans less than this factor (low to high) and is closed.
 DETERMINED_SPAN = 4.0
@@ -155,7 +157,7 @@ def best_determined_stress(laws: np.ndarray, band: Sequence[float], samples: int
     if len(np.unique(laws[:, 2].round(6))) < 3:
         return None
     rates = np.geomspace(band[0], band[1], samples)
-    stress = laws[:, :1] + laws[:, 1:2] * rates ** laws[:, 2:3]
+    stress = herschel_bulkley(rates, laws[:, :1], laws[:, 1:2], laws[:, 2:3])  # (laws, rates)
     best = int(np.argmin(stress.max(axis=0) / stress.min(axis=0)))
     return DeterminedStress(float(rates[best]), float(stress[:, best].min()), float(stress[:, best].max()))
 

@@ -95,14 +95,14 @@ def rheometer_comparison(laws: dict[str, tuple[float, float, float]], curves: li
     return table_tag(header, rows), errors
 
 
-def determined_stress_text(fit: dict, curves: list[FlowCurve]) -> str:
+def determined_stress_text(fit: dict, curves: list[FlowCurve]) -> str | None:
     """Where, over the shear rates the flow reached, the flow curves of a fit's (params.json) evaluated laws within
     the tolerance agree best: their stresses, the rate and how many laws, and the rheometer's stresses there where
-    there are ``curves``; "-" without a band or where ``best_determined_stress`` finds nothing."""
+    there are ``curves``; None without a band or where ``best_determined_stress`` finds nothing."""
     band = fit["shear_rate_band_per_s"]
     found = None if band is None else best_determined_stress(fit["within_tolerance"]["laws"], band)
     if found is None:
-        return "-"
+        return None
     text = f"{found.low:.3g}-{found.high:.3g} Pa at {found.rate:.2g} 1/s, {len(fit['within_tolerance']['laws'])} laws"
     if curves:
         measured = [curve.stress_at(found.rate) for curve in curves]
