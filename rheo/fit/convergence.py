@@ -330,6 +330,11 @@ def rheometer_law(files: list[str], band: tuple[float, float] | None) -> Law:
     return fit_herschel_bulkley(curve.within(band) if band is not None else curve)
 
 
+def material_rheometer_law(config: dict, material: str) -> Law:
+    """``material``'s rheometer law within the convergence study's band (``config``: the virheometry settings)."""
+    return rheometer_law(config["rheometer"][material], config["convergence"]["rheometer_band"])
+
+
 def study_cases(setups: Sequence[Setup], laws: dict[str, Law], grids: Sequence[int], cfls: Sequence[float],
                 default: tuple[int, int]) -> list[Case]:
     """Every setup, law, step and grid (``grids``: cells over the height, and the fit's ``default`` grid), grids
@@ -402,7 +407,7 @@ def main(argv: list[str] | None = None) -> None:
     config = workflow_settings(args.config)["virheometry"]
     laws = {f"given {i + 1}": given for i, given in enumerate(args.law)}
     if args.material in config["rheometer"]:
-        laws["rheometer"] = rheometer_law(config["rheometer"][args.material], config["convergence"]["rheometer_band"])
+        laws["rheometer"] = material_rheometer_law(config, args.material)
     if not laws:
         parser.error(f"{args.material}: no law to simulate (give --law; no rheometer curves)")
     simulation = config["simulation"] | {k: v for k, v in (("mu", args.mu), ("lam", args.lam)) if v is not None}

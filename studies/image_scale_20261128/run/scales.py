@@ -12,7 +12,7 @@ from pathlib import Path
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.virheometry import read_setup, setup_folders
-from rheo.fit.convergence import StudyRecords, rheometer_law
+from rheo.fit.convergence import StudyRecords, material_rheometer_law
 from rheo.fit.dam_break import target
 
 BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
@@ -27,7 +27,7 @@ def main() -> None:
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     simulation = config["simulation"]
     laws = {"bingham": BINGHAM,
-            "rheometer": rheometer_law(config["rheometer"]["Lotion"], config["convergence"]["rheometer_band"])}
+            "rheometer": material_rheometer_law(config, "Lotion")}
     records = StudyRecords(args.out)
     for folder in setup_folders(config["data"], "Lotion"):
         compared = {scale: target(read_setup(folder, scale), simulation) for scale in SCALES}

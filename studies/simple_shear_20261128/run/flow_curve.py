@@ -14,7 +14,7 @@ import numpy as np
 import warp as wp
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
-from rheo.fit.convergence import rheometer_law
+from rheo.fit.convergence import material_rheometer_law
 from rheo.io import write_json_atomic
 from rheo.physics import HerschelBulkley, kernels
 
@@ -48,7 +48,7 @@ def main() -> None:
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     lam = config["simulation"]["lam"]
     laws = {"bingham": BINGHAM,
-            "rheometer": rheometer_law(config["rheometer"]["Lotion"], config["convergence"]["rheometer_band"])}
+            "rheometer": material_rheometer_law(config, "Lotion")}
     rates = np.array(RATES)
     out = {"rates_per_s": list(RATES), "lam_pa": lam, "step_s": STEP, "strain": STRAIN, "laws": {}}
     for name, (tau_y, K, n) in laws.items():

@@ -22,7 +22,7 @@ import numpy as np
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.effects import Effects
 from rheo.experiments.virheometry import read_setup, setup_folders
-from rheo.fit.convergence import engine_fingerprint, rheometer_law
+from rheo.fit.convergence import engine_fingerprint, material_rheometer_law
 from rheo.fit.dam_break import DamBreakTarget, target
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, simplex_search
@@ -65,7 +65,7 @@ def main() -> None:
     simulation, scale = config["simulation"], config["scale"]
     if args.cells:
         simulation = {**simulation, "cells_per_height": args.cells[0], "cells_across": args.cells[1]}
-    rheometer = rheometer_law(config["rheometer"]["Lotion"], config["convergence"]["rheometer_band"])
+    rheometer = material_rheometer_law(config, "Lotion")
     folders = setup_folders(config["data"], "Lotion")
     log = EvaluationLog(args.store, json.dumps({"engine": engine_fingerprint(), "simulation": simulation,
                                                 "rheometer": list(rheometer)}))

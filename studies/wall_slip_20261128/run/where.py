@@ -16,7 +16,7 @@ from pathlib import Path
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.dam_break import DamBreakScene
 from rheo.experiments.virheometry import read_setup, setup_folders
-from rheo.fit.convergence import StudyRecords, rheometer_law
+from rheo.fit.convergence import StudyRecords, material_rheometer_law
 from rheo.fit.dam_break import target
 
 BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
@@ -45,7 +45,7 @@ def main() -> None:
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     simulation = config["simulation"]
     laws = {"bingham": BINGHAM,
-            "rheometer": rheometer_law(config["rheometer"]["Lotion"], config["convergence"]["rheometer_band"])}
+            "rheometer": material_rheometer_law(config, "Lotion")}
     records = StudyRecords(args.out)
     folders = [f for f in setup_folders(config["data"], "Lotion") if not args.setups or f.name in args.setups]
     original = DamBreakScene.colliders
