@@ -17,13 +17,22 @@ from pathlib import Path
 from pins import SHAPES, read_rate
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
-from rheo.experiments.virheometry import read_setup
+from rheo.experiments.virheometry import Setup, read_setup
 from rheo.fit.convergence import StudyRecords
-from rheo.fit.dam_break import shear_rate_band, target
+from rheo.fit.dam_break import Comparison, DamBreakTarget, shear_rate_band, target
 
 CHANNEL = "ref_Lotion_7.0_7.0_2"
 TRUTH = "n 1"  # the shape the recording is made with, at its own scale
 FIRST_FRAME_S = 0.05
+
+
+def filled_recording(channel: Setup, height: float, simulation: dict) -> tuple[DamBreakTarget, Comparison]:
+    """``channel`` filled to ``height`` (m) with its recording simulated from the truth's law, as a target, and that
+    simulation."""
+    filled = dataclasses.replace(channel, height=height)
+    truth = target(filled, simulation | {"min_offset": FIRST_FRAME_S, "max_offset": FIRST_FRAME_S})
+    recording = truth.compare(*SHAPES[TRUTH])
+    return target(dataclasses.replace(filled, masks=list(recording.silhouettes)), simulation), recording
 
 
 def main() -> None:
@@ -37,10 +46,7 @@ def main() -> None:
     records = StudyRecords(args.out)
     channel = read_setup(Path(config["data"]) / CHANNEL, config["scale"])
     for height in args.heights:
-        filled = dataclasses.replace(channel, height=height)
-        truth = target(filled, simulation | {"min_offset": FIRST_FRAME_S, "max_offset": FIRST_FRAME_S})
-        recording = truth.compare(*SHAPES[TRUTH])
-        compared = target(dataclasses.replace(filled, masks=list(recording.silhouettes)), simulation)
+        compared, recording = filled_recording(channel, height, simulation)
         read_rate(compared, f"{height:g} m", records, [name for name in SHAPES if name != TRUTH],
                   [(list(SHAPES[TRUTH]), shear_rate_band([recording]))])
 

@@ -28,23 +28,25 @@ LOG_SCALE = 0.35  # the scales searched: exp(-0.35) to exp(0.35)
 SCALE_TOLERANCE = 0.015  # in log
 
 
+def scaled_loss(compared: DamBreakTarget, label: str, law: tuple[float, float, float], log_scale: float,
+                records: StudyRecords) -> float:
+    """The loss of ``law`` scaled by exp(``log_scale``) on ``compared``, from ``records`` or simulated into them."""
+    name = f"{label} {log_scale:.6f}"
+    if name not in records:
+        tau_y, K, n = law
+        scale = math.exp(log_scale)
+        comparison = compared.compare(scale * tau_y, scale * K, n)
+        records[name] = {"loss_px": comparison.loss, "band_per_s": shear_rate_band([comparison])}
+        logging.info("%s: %.5f px", name, comparison.loss)
+        records.save()
+    return records[name]["loss_px"]
+
+
 def best_scale(compared: DamBreakTarget, label: str, law: tuple[float, float, float],
                records: StudyRecords) -> tuple[float, dict]:
     """The scale of ``law`` that fits ``compared`` best, and its record (loss, shear-rate band)."""
-    tau_y, K, n = law
-
-    def loss(log_scale: float) -> float:
-        name = f"{label} {log_scale:.6f}"
-        if name not in records:
-            scale = math.exp(log_scale)
-            comparison = compared.compare(scale * tau_y, scale * K, n)
-            records[name] = {"loss_px": comparison.loss, "band_per_s": shear_rate_band([comparison])}
-            logging.info("%s: %.5f px", name, comparison.loss)
-            records.save()
-        return records[name]["loss_px"]
-
-    found = minimize_scalar(loss, bounds=(-LOG_SCALE, LOG_SCALE), method="bounded",
-                            options={"xatol": SCALE_TOLERANCE})
+    found = minimize_scalar(lambda s: scaled_loss(compared, label, law, s, records), bounds=(-LOG_SCALE, LOG_SCALE),
+                            method="bounded", options={"xatol": SCALE_TOLERANCE})
     return math.exp(found.x), records[f"{label} {found.x:.6f}"]
 
 
