@@ -64,9 +64,11 @@ def window_pin(by_shape: dict[str, dict[float, dict]], frames: slice) -> dict:
             for p in record["rates_per_s"][frames]:
                 if p is not None:
                     band = [min(band[0], p[0]), max(band[1], p[2])]
+    window = {"scales": scales, "scales_at_grid_end": at_end, "band_per_s": [round(b, 3) for b in band]}
     pinned = best_determined_stress(np.array(laws), band)
-    return {"scales": scales, "scales_at_grid_end": at_end, "band_per_s": [round(b, 3) for b in band],
-            "rate_per_s": round(pinned.rate, 3), "stress_pa": [round(pinned.low, 3), round(pinned.high, 3)]}
+    if pinned is not None:
+        window |= {"rate_per_s": round(pinned.rate, 3), "stress_pa": [round(pinned.low, 3), round(pinned.high, 3)]}
+    return window
 
 
 def main() -> None:
@@ -75,6 +77,8 @@ def main() -> None:
     parser.add_argument("--gate-lift-time", type=float, default=0.0,
                         help="s: a gate slides up and clears the material in this time (default: released at once)")
     parser.add_argument("--setups", nargs="+", help="setup folder names (default: both of Lotion's)")
+    parser.add_argument("--shapes", nargs="+", choices=SHAPES, default=list(SHAPES),
+                        help="the laws (default: all three; the pinned rate needs all three)")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
@@ -85,12 +89,12 @@ def main() -> None:
     for folder in (f for f in setup_folders(config["data"], "Lotion") if not args.setups or f.name in args.setups):
         compared = target(read_setup(folder, config["scale"]), config["simulation"])
         by_shape = {}
-        for name, law in SHAPES.items():
+        for name in args.shapes:
             by_shape[name] = {}
             for log_scale in LOG_SCALES:
                 label = f"{folder.name} {name} {log_scale:+.2f}{gate}"
                 if label not in records:
-                    records[label] = simulate(compared, law, float(log_scale), effects)
+                    records[label] = simulate(compared, SHAPES[name], float(log_scale), effects)
                     records.save()
                     logging.info("%s: %.5f px", label, np.mean(records[label]["distances_px"]))
                 by_shape[name][float(log_scale)] = records[label]
