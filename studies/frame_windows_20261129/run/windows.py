@@ -5,7 +5,8 @@ stored. For a window of frames, each law's best scale is the vertex of the parab
 window losses; where the best-scaled flow curves agree best over the window's shear rates is the rate the window
 pins. Records go to ``--out`` under the engine's fingerprint, so a stopped run goes on and a finished one replays.
 
-    PYTHONPATH=. python studies/frame_windows_20261129/run/windows.py --out studies/frame_windows_20261129/frames.json
+    PYTHONPATH=. python studies/frame_windows_20261129/run/windows.py --out studies/frame_windows_20261129/frames.json \
+        [--gate-lift-time 0.1]
 """
 
 import argparse
