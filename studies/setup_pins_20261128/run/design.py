@@ -47,7 +47,7 @@ def main() -> None:
     channel = read_setup(Path(config["data"]) / CHANNEL, config["scale"])
     for height in args.heights:
         compared, recording = filled_recording(channel, height, simulation)
-        read_rate(compared, f"{height:g} m", records, [name for name in SHAPES if name != TRUTH],
+        read_rate(compared, f"{height:g} m", records, {name: law for name, law in SHAPES.items() if name != TRUTH},
                   [(list(SHAPES[TRUTH]), shear_rate_band([recording]))])
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ written to ``--out`` under the engine's fingerprint, so a stopped run goes on an
 """
 
 import argparse
+import json
 import logging
 import math
 from collections.abc import Sequence
@@ -50,13 +51,21 @@ def best_scale(compared: DamBreakTarget, label: str, law: tuple[float, float, fl
     return math.exp(found.x), records[f"{label} {found.x:.6f}"]
 
 
-def read_rate(compared: DamBreakTarget, label: str, records: StudyRecords, names: Sequence[str] = tuple(SHAPES),
+def profile_shapes(fit: Path) -> dict[str, tuple[float, float, float]]:
+    """The laws of ``fit``'s (a joint fit's params.json) flow-index profile at the flow indices of ``SHAPES``."""
+    profile = json.loads(fit.read_text())["flow_index_profile"]
+    laws = zip(profile["tau_y_Pa"], profile["K_Pa_s_n"], profile["n"], strict=True)
+    by_index = {n: (tau_y, K, n) for tau_y, K, n in laws}
+    return {name: by_index[n] for name, (_, _, n) in SHAPES.items()}
+
+
+def read_rate(compared: DamBreakTarget, label: str, records: StudyRecords,
+              shapes: dict[str, tuple[float, float, float]] = SHAPES,
               known: Sequence[tuple[list[float], list[float]]] = ()) -> DeterminedStress:
-    """Where the ``names``' shapes, each scaled to fit ``compared`` best, and the ``known`` laws (each with its
-    shear-rate band) agree best over their shear rates; each step printed."""
+    """Where the ``shapes``, each scaled to fit ``compared`` best, and the ``known`` laws (each with its shear-rate
+    band) agree best over their shear rates; each step printed."""
     laws, bands = [law for law, _ in known], [band for _, band in known]
-    for name in names:
-        law = SHAPES[name]
+    for name, law in shapes.items():
         scale, record = best_scale(compared, f"{label} {name}", law, records)
         laws.append([scale * law[0], scale * law[1], law[2]])
         bands.append(record["band_per_s"])
@@ -71,12 +80,15 @@ def read_rate(compared: DamBreakTarget, label: str, records: StudyRecords, names
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--material", default="Lotion")
+    parser.add_argument("--fit", type=Path, help="the material's joint fit (params.json); Lotion's laws by default")
     args = parser.parse_args()
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     records = StudyRecords(args.out)
-    for folder in setup_folders(config["data"], "Lotion"):
-        read_rate(target(read_setup(folder, config["scale"]), config["simulation"]), folder.name, records)
+    shapes = profile_shapes(args.fit) if args.fit else SHAPES
+    for folder in setup_folders(config["data"], args.material):
+        read_rate(target(read_setup(folder, config["scale"]), config["simulation"]), folder.name, records, shapes)
 
 if __name__ == "__main__":
     main()
