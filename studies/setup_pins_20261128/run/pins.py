@@ -83,6 +83,8 @@ def main() -> None:
     parser.add_argument("--material", default="Lotion")
     parser.add_argument("--fit", type=Path, help="the material's joint fit (params.json); Lotion's laws by default")
     args = parser.parse_args()
+    if args.material != "Lotion" and args.fit is None:
+        parser.error(f"--fit is needed for {args.material}: the laws shipped are Lotion's")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     records = StudyRecords(args.out)
