@@ -274,8 +274,8 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
                         opened.criterion - base.criterion)
 
     def located(comparisons: dict[str, Comparison]) -> dict[str, Location]:
-        return {name: locate(records[name], list(c.silhouettes), records[name].masks,
-                             [str(k + 1) for k in range(len(records[name].masks))]) for name, c in comparisons.items()}
+        return {name: locate(records[name], list(c.silhouettes), records[name].masks)
+                for name, c in comparisons.items()}
 
     return Diagnosis(law, base, found, chosen, before, after, located(before), settings["evidence"], opened,
                      None if chosen is None else located(after), band)

@@ -100,8 +100,8 @@ class Location:
 
 
 def locate(setup: Setup, simulated: list[np.ndarray], observed: list[np.ndarray],
-           frame_labels: list[str]) -> Location:
-    """Pixel counts of the mismatch per frame and region."""
+           frame_labels: list[str] | None = None) -> Location:
+    """Pixel counts of the mismatch per frame and region; frames labelled 1, 2, ... unless ``frame_labels``."""
     regions = region_masks(setup, [*simulated, *observed])
     extra = np.zeros((len(observed), len(REGIONS)))
     missing = np.zeros_like(extra)
@@ -109,4 +109,4 @@ def locate(setup: Setup, simulated: list[np.ndarray], observed: list[np.ndarray]
         for k, name in enumerate(REGIONS):
             extra[f, k] = (s & ~o & regions[name]).sum()
             missing[f, k] = (o & ~s & regions[name]).sum()
-    return Location(extra, missing, frame_labels)
+    return Location(extra, missing, frame_labels or [str(k + 1) for k in range(len(observed))])

@@ -11,7 +11,7 @@ import argparse
 import json
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -59,6 +59,26 @@ def profile_shapes(fit: Path) -> dict[str, tuple[float, float, float]]:
     return {name: by_index[n] for name, (_, _, n) in SHAPES.items()}
 
 
+def add_material_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--material`` (Lotion by default) and ``--fit``, the joint fit whose profile gives another material's laws."""
+    parser.add_argument("--material", default="Lotion")
+    parser.add_argument("--fit", type=Path, help="the material's joint fit (params.json); Lotion's laws by default")
+
+
+def material_shapes(parser: argparse.ArgumentParser, args: argparse.Namespace) -> dict[str, tuple[float, float, float]]:
+    """The laws to read ``args.material`` with: its fit's profile, or Lotion's ``SHAPES``."""
+    if args.material != "Lotion" and args.fit is None:
+        parser.error(f"--fit is needed for {args.material}: the laws shipped are Lotion's")
+    return profile_shapes(args.fit) if args.fit else SHAPES
+
+
+def setup_targets(material: str) -> Iterator[tuple[str, DamBreakTarget]]:
+    """Each of ``material``'s setups (folder name) with its target at the default settings."""
+    config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
+    for folder in setup_folders(config["data"], material):
+        yield folder.name, target(read_setup(folder, config["scale"]), config["simulation"])
+
+
 def read_rate(compared: DamBreakTarget, label: str, records: StudyRecords,
               shapes: dict[str, tuple[float, float, float]] = SHAPES,
               known: Sequence[tuple[list[float], list[float]]] = ()) -> DeterminedStress:
@@ -80,17 +100,13 @@ def read_rate(compared: DamBreakTarget, label: str, records: StudyRecords,
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, required=True)
-    parser.add_argument("--material", default="Lotion")
-    parser.add_argument("--fit", type=Path, help="the material's joint fit (params.json); Lotion's laws by default")
+    add_material_arguments(parser)
     args = parser.parse_args()
-    if args.material != "Lotion" and args.fit is None:
-        parser.error(f"--fit is needed for {args.material}: the laws shipped are Lotion's")
+    shapes = material_shapes(parser, args)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
-    config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     records = StudyRecords(args.out)
-    shapes = profile_shapes(args.fit) if args.fit else SHAPES
-    for folder in setup_folders(config["data"], args.material):
-        read_rate(target(read_setup(folder, config["scale"]), config["simulation"]), folder.name, records, shapes)
+    for name, compared in setup_targets(args.material):
+        read_rate(compared, name, records, shapes)
 
 if __name__ == "__main__":
     main()
