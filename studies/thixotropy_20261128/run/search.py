@@ -9,6 +9,11 @@ the settings, so a stopped search goes on and a changed engine evaluates anew.
 On finer cells (cells over each setup's height and across its channel, as the convergence study gives them), on a GPU:
 
     PYTHONPATH=. python studies/thixotropy_20261128/run/search.py --cells 24 3 --device cuda --store fine.json
+
+At a stiffer shear modulus, beside the Bingham law of Lotion's fit at that modulus (its flow-index profile at n 1):
+
+    PYTHONPATH=. python studies/thixotropy_20261128/run/search.py --mu 3000 --bingham 13.24 0.939 \
+        --store studies/thixotropy_20261128/mu_3000.json
 """
 
 import argparse
@@ -58,6 +63,9 @@ def main() -> None:
     parser.add_argument("--cells", type=int, nargs=2, metavar=("HEIGHT", "ACROSS"),
                         help="cells over the height and across the channel (default: the fit's grid)")
     parser.add_argument("--device", choices=DEVICES, default="cpu")
+    parser.add_argument("--mu", type=float, help="the shear modulus, Pa (default: the fit's)")
+    parser.add_argument("--bingham", type=float, nargs=2, metavar=("TAU_Y", "K"), default=BINGHAM[:2],
+                        help="the Bingham law to compare with, Pa and Pa s (default: the default fit's)")
     args = parser.parse_args()
     set_default_device(args.device)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
@@ -65,6 +73,8 @@ def main() -> None:
     simulation, scale = config["simulation"], config["scale"]
     if args.cells:
         simulation = {**simulation, "cells_per_height": args.cells[0], "cells_across": args.cells[1]}
+    if args.mu is not None:
+        simulation = {**simulation, "mu": args.mu}
     rheometer = material_rheometer_law(config, "Lotion")
     folders = setup_folders(config["data"], "Lotion")
     log = EvaluationLog(args.store, json.dumps({"engine": engine_fingerprint(), "simulation": simulation,
@@ -84,7 +94,7 @@ def main() -> None:
             logging.info("tau_y0 %.2f Pa, lam %.3g 1/s: %.5f px", tau_y0, lam, loss)
             return loss
 
-        for name, law in (("bingham", BINGHAM), ("rheometer", rheometer)):
+        for name, law in (("bingham", (*args.bingham, 1.0)), ("rheometer", rheometer)):
             log.evaluate_many(lambda points, law=law: [losses(law)], [np.log(law)], name)
         best, loss = simplex_search(thixotropic, START, 0.5, args.evaluations, "search", box=BOX)
     for record in log.records:
