@@ -14,6 +14,11 @@ At a stiffer shear modulus, beside the Bingham law of Lotion's fit at that modul
 
     PYTHONPATH=. python studies/thixotropy_20261128/run/search.py --mu 3000 --bingham 13.24 0.939 \
         --store studies/thixotropy_20261128/mu_3000.json
+
+The search's best point alone on the next finer cells (1.54 and 2.0 mm):
+
+    PYTHONPATH=. python studies/thixotropy_20261128/run/search.py --mu 3000 --bingham 13.24 0.939 --cells 16 20 \
+        --at 41.09 31.29 --store studies/thixotropy_20261128/mu_3000_finer.json
 """
 
 import argparse
@@ -63,6 +68,8 @@ def main() -> None:
     parser.add_argument("--cells", type=int, nargs=2, metavar=("HEIGHT", "ACROSS"),
                         help="cells over the height and across the channel (default: the fit's grid)")
     parser.add_argument("--device", choices=DEVICES, default="cpu")
+    parser.add_argument("--at", type=float, nargs=2, metavar=("TAU_Y0", "LAM"),
+                        help="evaluate this point (Pa, 1/s) instead of searching")
     parser.add_argument("--mu", type=float, help="the shear modulus, Pa (default: the fit's)")
     parser.add_argument("--bingham", type=float, nargs=2, metavar=("TAU_Y", "K"), default=BINGHAM[:2],
                         help="the Bingham law to compare with, Pa and Pa s (default: the default fit's)")
@@ -96,12 +103,16 @@ def main() -> None:
 
         for name, law in (("bingham", (*args.bingham, 1.0)), ("rheometer", rheometer)):
             log.evaluate_many(lambda points, law=law: [losses(law)], [np.log(law)], name)
-        best, loss = simplex_search(thixotropic, START, 0.5, args.evaluations, "search", box=BOX)
+        if args.at:
+            best = np.log(args.at)
+            loss = thixotropic(best, "point")
+        else:
+            best, loss = simplex_search(thixotropic, START, 0.5, args.evaluations, "search", box=BOX)
     for record in log.records:
         print(record["phase"], np.round(np.exp(record["x"]), 3).tolist(), round(record["loss"], 5),
               [round(v, 5) for v in record["setups"].values()])
     tau_y0, lam = np.exp(best)
-    print(f"best: tau_y0 {tau_y0:.2f} Pa, lam {lam:.3g} 1/s, {loss:.5f} px")
+    print(f"{'point' if args.at else 'best'}: tau_y0 {tau_y0:.2f} Pa, lam {lam:.3g} 1/s, {loss:.5f} px")
 
 
 if __name__ == "__main__":
