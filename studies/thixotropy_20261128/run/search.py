@@ -12,7 +12,7 @@ On finer cells (cells over each setup's height and across its channel, as the co
 
 At a stiffer shear modulus, beside the Bingham law of Lotion's fit at that modulus (its flow-index profile at n 1):
 
-    PYTHONPATH=. python studies/thixotropy_20261128/run/search.py --mu 3000 --bingham 13.24 0.939 \
+    PYTHONPATH=. python studies/thixotropy_20261128/run/search.py --mu 3000 --bingham 13.24 0.939 --evaluations 40 \
         --store studies/thixotropy_20261128/mu_3000.json
 
 The search's best point alone on the next finer cells (1.54 and 2.0 mm):
