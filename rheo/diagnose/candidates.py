@@ -98,9 +98,8 @@ class Candidate:
         stress at the flow's shear rates, so the law starts where its flow curve matches the last one over the
         shear-rate ``band`` (1/s) that the base fit's flow reaches. Thixotropy changes what tau_y means: the base
         fit's is what the broken-down material showed, the intact material's is larger by what a plastic strain of
-        a few units takes away (``BREAKDOWN_STRAINS``), which no short search from the base law reaches (on the way
-        the loss rises: concealed thixotropy 1.0 with tau_y 20, base fit 0.5; at 1.0, 0.013 px at 0.5 Pa, 0.016 at
-        5, 0.0068 at 20)."""
+        a few units takes away (``BREAKDOWN_STRAINS``), which no short search from the base law reaches: on the way
+        the loss rises (docs/settings.md, "Constants in the code")."""
         if self.name == "shear_thinning" and band is not None:
             return [matched_law(law, value, next_value, band)]
         if self.name == "thixotropy":

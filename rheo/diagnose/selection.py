@@ -159,8 +159,7 @@ def finalists_refitted(found: Sequence[Refit], refit: Callable[[Refit], Refit], 
                        side_by_side: int) -> list[Refit]:
     """The ``count`` refits of lowest criterion refitted again (``refit``: a longer search from each one's best point,
     every parameter free), the others as they were, so that the luck of a profile's short searches does not decide
-    between close candidates (concealed air drag: 0.0150 px after its profile, within 0.3 of the tilted-gravity
-    decoy's criterion; 0.0053 px after the longer refit)."""
+    between close candidates (docs/settings.md, `finalists`)."""
     ranked = sorted(found, key=lambda r: r.criterion)
     return refits(ranked[:count], refit, side_by_side) + list(ranked[count:])
 

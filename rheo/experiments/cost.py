@@ -21,8 +21,7 @@ CHECKPOINT_BYTES = 2**30
 # the lab renderer at twice the resolution, per output pixel, measured on 320 x 240 and 640 x 480 views
 RENDER_BYTES_PER_PIXEL = 800
 RENDER_SECONDS_PER_PIXEL = 1.2e-6
-# one core's forward step, per particle (docs/performance.md: about 0.85 us at 32^3 and 48^3); a backward pass costs
-# twice a forward one
+# one core's forward step, per particle (docs/performance.md); a backward pass costs twice a forward one
 SECONDS_PER_PARTICLE_STEP = 1.0e-6
 SECONDS_PER_NODE_STEP = 2.0e-8
 FIT_WORKERS = 2

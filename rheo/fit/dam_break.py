@@ -33,9 +33,7 @@ from rheo.render.silhouette import boundary_distance, distance_to, iou, silhouet
 OFFSET_STEP = 1.0 / 240.0  # s
 MOVING_RATE = 0.1  # 1/s: slower particles count as at rest in the shear-rate band
 SHARE_STEP = 1.0  # the flow-index searches' initial step in the logit of the yield stress' share (0.5 -> 0.73)
-# ... and in the log of the stress at the stress rate, which the stress search has placed and good laws share within
-# about 12 %
-STRESS_STEP = 0.1
+STRESS_STEP = 0.1  # ... and in the log of the stress at the stress rate, which the stress search has placed
 STRESS_TOLERANCE = 0.05  # log units: the stress search's resolution
 
 
@@ -251,10 +249,8 @@ def flow_index_profile(evaluate_many: EvaluateMany, log_stress: float, flow_indi
     A dam break's silhouettes fix the stress at the shear rates of its flow tightly and its split between yield and
     viscous stress and the flow index loosely, so equally good laws lie along a curved valley in (tau_y, K, n), with
     basins along it that a survey of the box is too coarse to tell apart. Keeping the stress puts every search's
-    start in the valley; the even split lets it reach a basin on either side (on a grid of 8 x 10 cells, a survey's
-    best may have an extreme split: Mustard's, a yield stress of 0.2 % of the stress, whose basin loses 0.0176 px,
-    where searches from an even split find 0.016 at n 1 and 1.4; Lotion: searches from the survey's best alone found
-    n 0.58 at 0.0307 px, these 0.0281 at n 1 and 0.0260 at n 1.4)."""
+    start in the valley; the even split lets it reach a basin on either side, where a survey's best may lie at an
+    extreme split in a worse basin (docs/settings.md, `flow_index_searches`)."""
     start = np.array([log_stress, 0.0])
 
     def search(n: float) -> tuple[np.ndarray, float]:

@@ -193,8 +193,7 @@ def initial_guess(exp: dict) -> dict[str, float]:
 def survey_velocities(estimate: np.ndarray) -> list[tuple[str, np.ndarray]]:
     """The initial velocities a fit's survey tries every material with, by phase name: the velocity stage's
     ``estimate`` and a release from rest. The estimate was made with the material at its guess, whose different
-    collapse it partly absorbs, and from one view the motion along the line of sight goes unseen (the virtual
-    single-view cup, released from rest: estimated 0.19 m/s along it)."""
+    collapse it partly absorbs, and from one view the motion along the line of sight goes unseen."""
     return [("survey", estimate)] + ([("survey, from rest", np.zeros(3))] if np.any(estimate) else [])
 
 

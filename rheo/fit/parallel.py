@@ -1,13 +1,12 @@
 """Loss evaluations on several cores.
 
-Warp's CPU kernels run on one core, so independent simulations (the points of a survey, the setups of a joint fit)
-are spread over worker processes, one per core. Each worker builds its objectives once (loading observations,
-compiling kernels) and keeps them; a task names the objective and the point. A worker's OpenMP and BLAS (torch's,
-numpy's) run on one thread: with a pool of threads each, the workers' threads contend for the cores (two workers
-evaluating laws on Lotion's two setups at 12 x 14 cells: 18.9 s an evaluation against 14.1 s), and a forked worker
-whose parent had run torch's OpenMP threads hangs in its first parallel operation. (OpenCV's threads are left as
-they are: setting them in a forked worker hangs.) On a GPU the simulations run one after the other in the calling
-process.
+Warp's CPU kernels run on one core, so independent simulations (the points of a survey, the setups of a joint fit) are
+spread over worker processes, one per core. Each worker builds its objectives once (loading observations, compiling
+kernels) and keeps them; a task names the objective and the point. A worker's OpenMP and BLAS (torch's, numpy's) run
+on one thread: with a pool of threads each, the workers' threads contend for the cores (docs/performance.md), and a
+forked worker whose parent had run torch's OpenMP threads hangs in its first parallel operation. (OpenCV's threads are
+left as they are: setting them in a forked worker hangs.) On a GPU the simulations run one after the other in the
+calling process.
 """
 
 from __future__ import annotations

@@ -6,11 +6,10 @@ where overlap losses are flat. Its minimiser is searched in three steps: a quasi
 log-parameters, short Nelder-Mead searches from the survey's best few points (two materials may fit nearly equally
 well in different basins, and the survey's best need not lie in the better one), then the surface of the loss around
 the best point found (``rheo.fit.surface``), whose region within the tolerance gives the intervals. The estimate is
-the lowest loss evaluated, the surface's lowest point included (on the virtual cup and squirt the surface's lowest
-point lost 3 % more than the best material evaluated, whose mu (cup) and eta (squirt) lay nearer the truth: -25 %
-against -32 %, -13 % against +38 %). Gradient descent on the rendering loss stalled in the curved, nearly flat valley
-between soft-and-strong and stiff-and-weak materials; the survey finds the right valley, and neither the simplex nor
-the surface needs a gradient of a loss that pixel edges make rough.
+the lowest loss evaluated, the surface's lowest point included (docs/settings.md, "Constants in the code"). Gradient
+descent on the rendering loss stalled in the curved, nearly flat valley between soft-and-strong and stiff-and-weak
+materials; the survey finds the right valley, and neither the simplex nor the surface needs a gradient of a loss that
+pixel edges make rough.
 
 Every evaluation is stored (in a JSON file written atomically after each one), so an interrupted search replays the
 stored values and goes on from where it stopped.
@@ -300,9 +299,8 @@ def walk_ends(evaluate_many: Callable[[list[np.ndarray]], list[float]], estimate
     between its last point within the level (the estimate, where the end sat at the box and the box is beyond) and
     the first beyond by ``END_HALVINGS`` bisections. A quadratic surface
     misjudges a valley that flattens on one side (a viscosity too low to show): its ends fall short where the loss
-    itself stays low. Along the axis, with the others held at the estimate, a walk leaves the valley of a trade-off
-    at once (the cup's shear modulus, traded against lambda: the axis ended at mu 961, the valley at the truth's
-    1000 loses 0.1 % more than the estimate)."""
+    itself stays low. Along the axis, with the others held at the estimate, a walk would leave the valley of a
+    trade-off (the cup's shear modulus against lambda) at once."""
     extents, open_ends = extents.copy(), open_ends.copy()
     beyond = np.full(extents.shape, np.nan)  # the first point out along each closed end's line past the level
 

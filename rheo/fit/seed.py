@@ -27,9 +27,7 @@ from rheo.vision.cameras import Camera
 logger = logging.getLogger(__name__)
 
 OPAQUE = 4.0  # optical depth per particle spacing (with rheo.render.field.COUNT_FLOOR: surfaces where volumes end)
-# top layers are trimmed while the silhouettes' outlines move by less than this on average (px). A layer that shows
-# moves the upper outlines: a flat top's by about a pixel, a dome's below its apex by a tenth (at 3 px per spacing);
-# the cap the views cannot carve over a flat top, by a hundredth
+# top layers are trimmed while the silhouettes' outlines move by less than this on average (px; docs/settings.md)
 OUTLINE_SHIFT = 0.05
 
 

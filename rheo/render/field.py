@@ -16,7 +16,7 @@ import torch
 import torch.nn.functional as F
 
 WHITE = torch.ones(3)  # the matted frames' background
-COUNT_FLOOR = 0.3  # calibrated: the true cup at 2 particles per cell renders its silhouette within 2 %
+COUNT_FLOOR = 0.3  # particles per cell below which the density field is empty (docs/settings.md)
 
 
 @dataclass(frozen=True)

@@ -10,9 +10,7 @@ import numpy as np
 
 from rheo.vision.cameras import Camera
 
-# disc radius in particle spacings: the circle inscribed in a particle's cell. The proxy's particles then draw the
-# virtual cup's matted masks to 0.1 % in area (0.6, the lab's splat radius: +1.4 %; 0.4: -1.9 %)
-DISC = 0.5
+DISC = 0.5  # disc radius in particle spacings: the circle inscribed in a particle's cell (docs/settings.md)
 SUPERSAMPLE = 2  # sub-pixels per pixel along each axis
 
 
