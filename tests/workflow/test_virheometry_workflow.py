@@ -57,6 +57,18 @@ def test_a_setup_is_imported_and_fitted(workflow):
     assert not list((workflow.root / "results/virheometry/Carbonara/fit_setup2").glob("*.evaluations.json"))
 
 
+def test_the_recordings_frame_rate_is_a_setting(workflow):
+    target = "results/virheometry/setups/ref_Carbonara_2.0_2.5_2/setup.json"
+    run = workflow.run(target, "--config", "virheometry={fps: 30.0}")
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert json.loads((workflow.root / target).read_text())["fps"] == 30.0
+    # frames that do not lie a whole number of the fit's 1/240 s steps apart are refused, naming the setup
+    other = target.replace("Carbonara_2.0_2.5_2", "Carbonara_3.7_6.4_1")
+    run = workflow.run(other, "--config", "virheometry={fps: 25.0}")
+    assert run.returncode != 0
+    assert "ref_Carbonara_3.7_6.4_1: virheometry.fps 25.0 puts its frames 9.6 steps" in run.stdout + run.stderr
+
+
 def test_the_summary_plans_a_joint_fit_and_a_page_per_material_and_an_import_per_setup(workflow):
     run = workflow.run("-n", "results/virheometry/summary.html")
     assert run.returncode == 0, run.stderr[-3000:]

@@ -30,6 +30,7 @@ rule virheometry_import:
     params:
         folder=lambda w: str(virheometry_folder(w.setup)),
         scale=config["virheometry"]["scale"],
+        fps=config["virheometry"]["fps"],
     script:
         "../../stages/virheometry_import.py"
 
