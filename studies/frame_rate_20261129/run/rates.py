@@ -1,0 +1,49 @@
+"""Lotion's two laws (the Bingham fit at the default settings and the rheometer's law) compared with the recordings
+as if their frames lay another interval apart than the 1/24 s the data's README gives (``--intervals``, in offset
+steps of 1/240 s: 8 for 1/30 s, 12 for 1/20 s): whether a frame rate other than the stated one turns which law comes
+closer. Each simulation's comparison is written to ``--out`` under the engine's fingerprint, so a stopped run goes
+on and a finished one replays.
+
+    PYTHONPATH=. python studies/frame_rate_20261129/run/rates.py --out studies/frame_rate_20261129/losses.json \
+        --intervals 8 9 10 11 12
+"""
+
+import argparse
+import dataclasses
+import logging
+from pathlib import Path
+
+from rheo.config import WORKFLOW_CONFIG, workflow_settings
+from rheo.experiments.virheometry import read_setup, setup_folders
+from rheo.fit.convergence import StudyRecords, material_rheometer_law
+from rheo.fit.dam_break import OFFSET_STEP, target
+
+BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--intervals", nargs="+", type=int, required=True, help="frame intervals in 1/240 s")
+    args = parser.parse_args()
+    logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
+    config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
+    laws = {"bingham": BINGHAM, "rheometer": material_rheometer_law(config, "Lotion")}
+    records = StudyRecords(args.out)
+    for steps in args.intervals:
+        for folder in setup_folders(config["data"], "Lotion"):
+            setup = dataclasses.replace(read_setup(folder, config["scale"]), fps=1.0 / (steps * OFFSET_STEP))
+            compared = target(setup, config["simulation"])
+            for name, law in laws.items():
+                label = f"{folder.name} {name} {steps}"
+                if label not in records:
+                    comparison = compared.compare(*law)
+                    records[label] = {"law": list(law), "loss_px": comparison.loss, "offset_s": comparison.offset,
+                                      "per_frame_px": comparison.distances.tolist()}
+                    logging.info("%s: %.5f px", label, comparison.loss)
+                    records.save()
+                print(label, round(records[label]["loss_px"], 5), flush=True)
+
+
+if __name__ == "__main__":
+    main()
