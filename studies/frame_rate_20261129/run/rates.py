@@ -5,7 +5,7 @@ closer. Each simulation's comparison is written to ``--out`` under the engine's 
 on and a finished one replays.
 
     PYTHONPATH=. python studies/frame_rate_20261129/run/rates.py --out studies/frame_rate_20261129/losses.json \
-        --intervals 8 9 10 11 12
+        --intervals 10 8 12 9 11 7 6
 """
 
 import argparse
