@@ -1,15 +1,19 @@
-"""Lotion's two laws (the Bingham fit at the default settings and the rheometer's law) compared with the recordings
-as if their frames lay another interval apart than the 1/24 s the data's README gives (``--intervals``, in offset
-steps of 1/240 s: 8 for 1/30 s, 12 for 1/20 s): whether a frame rate other than the stated one turns which law comes
-closer. Each simulation's comparison is written to ``--out`` under the engine's fingerprint, so a stopped run goes
-on and a finished one replays.
+"""Lotion's two laws (the Bingham fit at the default settings and the rheometer's law), or another material's joint
+fit at the default settings (``--material``, ``--fit``), compared with the recordings as if their frames lay another
+interval apart than the 1/24 s the data's README gives (``--intervals``, in offset steps of 1/240 s: 8 for 1/30 s, 12
+for 1/20 s): whether a frame rate other than the stated one turns which law comes closer. Each simulation's comparison
+is written to ``--out`` under the engine's fingerprint, so a stopped run goes on and a finished one replays.
 
     PYTHONPATH=. python studies/frame_rate_20261129/run/rates.py --out studies/frame_rate_20261129/losses.json \
         --intervals 10 8 12 9 11 7 6
+    PYTHONPATH=. python studies/frame_rate_20261129/run/rates.py --out studies/frame_rate_20261129/mustard.json \
+        --intervals 10 8 --material Mustard \
+        --fit studies/virheometry_20261127/results/virheometry/Mustard/fit/params.json
 """
 
 import argparse
 import dataclasses
+import json
 import logging
 from pathlib import Path
 
@@ -25,13 +29,21 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--intervals", nargs="+", type=int, required=True, help="frame intervals in 1/240 s")
+    parser.add_argument("--material", default="Lotion")
+    parser.add_argument("--fit", type=Path, help="the material's joint fit (params.json); Lotion's two laws by default")
     args = parser.parse_args()
+    if args.material != "Lotion" and args.fit is None:
+        parser.error(f"--fit is needed for {args.material}")
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
-    laws = {"bingham": BINGHAM, "rheometer": material_rheometer_law(config, "Lotion")}
+    if args.fit:
+        fit = json.loads(args.fit.read_text())
+        laws = {"fit": tuple(fit[key]["value"] for key in ("tau_y_Pa", "K_Pa_s_n", "n"))}
+    else:
+        laws = {"bingham": BINGHAM, "rheometer": material_rheometer_law(config, "Lotion")}
     records = StudyRecords(args.out)
     for steps in args.intervals:
-        for folder in setup_folders(config["data"], "Lotion"):
+        for folder in setup_folders(config["data"], args.material):
             setup = dataclasses.replace(read_setup(folder, config["scale"]), fps=1.0 / (steps * OFFSET_STEP))
             compared = target(setup, config["simulation"])
             for name, law in laws.items():
