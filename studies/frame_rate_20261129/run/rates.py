@@ -21,8 +21,7 @@ from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.virheometry import read_setup, setup_folders
 from rheo.fit.convergence import StudyRecords, material_rheometer_law
 from rheo.fit.dam_break import OFFSET_STEP, target
-
-BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
+from studies.lotion import BINGHAM
 
 
 def main() -> None:

@@ -23,8 +23,8 @@ from rheo.experiments.virheometry import read_setup, setup_folders
 from rheo.fit.convergence import StudyRecords
 from rheo.fit.dam_break import MOVING_RATE, OFFSET_STEP, DamBreakTarget, shear_rates, target
 from rheo.fit.uncertainty import best_determined_stress
+from studies.lotion import SHAPES
 
-SHAPES = {"n 0.55": (2.4576, 6.5717, 0.55), "n 1": (14.4528, 0.97793, 1.0), "n 1.4": (17.2573, 0.20308, 1.4)}
 LOG_SCALES = np.round(np.arange(-0.12, 0.241, 0.04), 2)  # the scales simulated: exp(-0.12) to exp(0.24)
 
 

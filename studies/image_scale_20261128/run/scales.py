@@ -14,8 +14,8 @@ from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.virheometry import read_setup, setup_folders
 from rheo.fit.convergence import StudyRecords, material_rheometer_law
 from rheo.fit.dam_break import target
+from studies.lotion import BINGHAM
 
-BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
 SCALES = (0.5, 1.0, 2.0)  # 0.5: the fit's default; 2.0: the PNGs' own 1920 x 1080
 
 

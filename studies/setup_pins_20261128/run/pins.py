@@ -22,9 +22,8 @@ from rheo.experiments.virheometry import read_setup, setup_folders
 from rheo.fit.convergence import StudyRecords
 from rheo.fit.dam_break import DamBreakTarget, shear_rate_band, target
 from rheo.fit.uncertainty import DeterminedStress, best_determined_stress
+from studies.lotion import SHAPES
 
-# Lotion's joint fit at the default settings: its flow-index profile's laws at n 0.55, 1 and 1.4 (docs/real-data.md)
-SHAPES = {"n 0.55": (2.4576, 6.5717, 0.55), "n 1": (14.4528, 0.97793, 1.0), "n 1.4": (17.2573, 0.20308, 1.4)}
 LOG_SCALE = 0.35  # the scales searched: exp(-0.35) to exp(0.35)
 SCALE_TOLERANCE = 0.015  # in log
 

@@ -17,8 +17,8 @@ from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.fit.convergence import material_rheometer_law
 from rheo.io import write_json_atomic
 from rheo.physics import HerschelBulkley, kernels
+from studies.lotion import BINGHAM
 
-BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
 RATES = (0.3, 1.0, 3.0, 10.0, 30.0, 100.0)  # 1/s
 STRAIN = 3.0  # shear strain at the slowest rate
 STEP = 3e-4  # s, about a dam break's step at the default settings

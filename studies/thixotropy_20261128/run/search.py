@@ -38,8 +38,8 @@ from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, simplex_search
 from rheo.physics.device import DEVICES, set_default_device
 from rheo.physics.optional import OptionalPhysics
+from studies.lotion import BINGHAM
 
-BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
 START = np.log([15.0, 10.0])  # tau_y0 (Pa), lam (1/s): the best of the grid at the former interval
 BOX = (np.log([5.0, 0.5]), np.log([80.0, 300.0]))
 

@@ -18,8 +18,8 @@ from rheo.experiments.dam_break import DamBreakScene
 from rheo.experiments.virheometry import read_setup, setup_folders
 from rheo.fit.convergence import StudyRecords, material_rheometer_law
 from rheo.fit.dam_break import target
+from studies.lotion import BINGHAM
 
-BINGHAM = (14.5, 0.978, 1.0)  # Lotion's joint fit at the default settings (docs/real-data.md)
 SURFACES = ("floor", "walls", "all")
 
 
