@@ -2,6 +2,9 @@
 
 
 def convergence_laws(material: str) -> dict:
+    if config["virheometry"]["fps"] != FPS:
+        raise ConfigError(f"virheometry.fps {config['virheometry']['fps']:g}: the convergence study reads the "
+                          f"recordings at {FPS:g} frames per second only")
     laws = config["virheometry"]["convergence"]["laws"].get(material, {})
     if not laws and material not in config["virheometry"]["rheometer"]:
         raise ValueError(f"{material}: no law to study (virheometry.convergence.laws has none, no rheometer curves)")
