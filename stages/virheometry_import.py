@@ -14,7 +14,8 @@ from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = start_stage(smk)
-if not np.isclose(steps := 1.0 / (smk.params.fps * OFFSET_STEP), round(steps)):
+steps = 1.0 / (smk.params.fps * OFFSET_STEP)  # offset steps between frames
+if not np.isclose(steps, round(steps)):
     raise ValueError(f"{smk.params.folder}: virheometry.fps {smk.params.fps} puts its frames {steps:.3g} steps of "
                      f"{OFFSET_STEP:.4g} s apart, not a whole number")
 setup = dataclasses.replace(read_setup(smk.params.folder, smk.params.scale), fps=smk.params.fps)

@@ -1,10 +1,15 @@
 # The convergence study of a material's simulated dam breaks: laws on a sequence of grids and time steps.
 
 
-def convergence_laws(material: str) -> dict:
+def convergence_folders(material: str) -> list[Path]:
+    """The material's setup folders, which the study reads itself, at the recordings' stated frame rate."""
     if config["virheometry"]["fps"] != FPS:
         raise ConfigError(f"virheometry.fps {config['virheometry']['fps']:g}: the convergence study reads the "
                           f"recordings at {FPS:g} frames per second only")
+    return setup_folders(config["virheometry"]["data"], material)
+
+
+def convergence_laws(material: str) -> dict:
     laws = config["virheometry"]["convergence"]["laws"].get(material, {})
     if not laws and material not in config["virheometry"]["rheometer"]:
         raise ValueError(f"{material}: no law to study (virheometry.convergence.laws has none, no rheometer curves)")
@@ -13,7 +18,7 @@ def convergence_laws(material: str) -> dict:
 
 rule virheometry_convergence:
     input:
-        recordings=lambda w: sorted(str(f) for p in setup_folders(config["virheometry"]["data"], w.material)
+        recordings=lambda w: sorted(str(f) for p in convergence_folders(w.material)
                                     for f in p.iterdir() if f.suffix in {".xml", ".png"}),
         rheometer=lambda w: config["virheometry"]["rheometer"].get(w.material, []),
     output:
@@ -31,7 +36,7 @@ rule virheometry_convergence:
         material=r"[A-Za-z0-9]+",
     threads: job_threads()
     params:
-        folders=lambda w: [str(p) for p in setup_folders(config["virheometry"]["data"], w.material)],
+        folders=lambda w: [str(p) for p in convergence_folders(w.material)],
         laws=lambda w: convergence_laws(w.material),
         study={k: v for k, v in config["virheometry"]["convergence"].items() if k != "laws"},
         simulation=config["virheometry"]["simulation"],

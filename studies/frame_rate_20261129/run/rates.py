@@ -18,6 +18,7 @@ import logging
 from pathlib import Path
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
+from rheo.experiments.rheometer import RESULT_KEYS
 from rheo.experiments.virheometry import read_setup, setup_folders
 from rheo.fit.convergence import StudyRecords, material_rheometer_law
 from rheo.fit.dam_break import OFFSET_STEP, target
@@ -37,7 +38,7 @@ def main() -> None:
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     if args.fit:
         fit = json.loads(args.fit.read_text())
-        laws = {"fit": tuple(fit[key]["value"] for key in ("tau_y_Pa", "K_Pa_s_n", "n"))}
+        laws = {"fit": tuple(fit[key]["value"] for key in RESULT_KEYS.values())}
     else:
         laws = {"bingham": BINGHAM, "rheometer": material_rheometer_law(config, "Lotion")}
     records = StudyRecords(args.out)
