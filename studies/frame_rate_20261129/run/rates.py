@@ -22,18 +22,16 @@ from rheo.experiments.rheometer import RESULT_KEYS
 from rheo.experiments.virheometry import read_setup, setup_folders
 from rheo.fit.convergence import StudyRecords, material_rheometer_law
 from rheo.fit.dam_break import OFFSET_STEP, target
-from studies.lotion import BINGHAM
+from studies.lotion import BINGHAM, add_material_arguments, require_fit
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--intervals", nargs="+", type=int, required=True, help="frame intervals in 1/240 s")
-    parser.add_argument("--material", default="Lotion")
-    parser.add_argument("--fit", type=Path, help="the material's joint fit (params.json); Lotion's two laws by default")
+    add_material_arguments(parser)
     args = parser.parse_args()
-    if args.material != "Lotion" and args.fit is None:
-        parser.error(f"--fit is needed for {args.material}")
+    require_fit(parser, args)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     if args.fit:

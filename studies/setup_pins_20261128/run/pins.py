@@ -22,7 +22,7 @@ from rheo.experiments.virheometry import read_setup, setup_folders
 from rheo.fit.convergence import StudyRecords
 from rheo.fit.dam_break import DamBreakTarget, shear_rate_band, target
 from rheo.fit.uncertainty import DeterminedStress, best_determined_stress
-from studies.lotion import SHAPES
+from studies.lotion import SHAPES, add_material_arguments, require_fit
 
 LOG_SCALE = 0.35  # the scales searched: exp(-0.35) to exp(0.35)
 SCALE_TOLERANCE = 0.015  # in log
@@ -58,16 +58,9 @@ def profile_shapes(fit: Path) -> dict[str, tuple[float, float, float]]:
     return {name: by_index[n] for name, (_, _, n) in SHAPES.items()}
 
 
-def add_material_arguments(parser: argparse.ArgumentParser) -> None:
-    """``--material`` (Lotion by default) and ``--fit``, the joint fit whose profile gives another material's laws."""
-    parser.add_argument("--material", default="Lotion")
-    parser.add_argument("--fit", type=Path, help="the material's joint fit (params.json); Lotion's laws by default")
-
-
 def material_shapes(parser: argparse.ArgumentParser, args: argparse.Namespace) -> dict[str, tuple[float, float, float]]:
     """The laws to read ``args.material`` with: its fit's profile, or Lotion's ``SHAPES``."""
-    if args.material != "Lotion" and args.fit is None:
-        parser.error(f"--fit is needed for {args.material}: the laws shipped are Lotion's")
+    require_fit(parser, args)
     return profile_shapes(args.fit) if args.fit else SHAPES
 
 

@@ -10,10 +10,11 @@ frames.
 import argparse
 from pathlib import Path
 
-from pins import add_material_arguments, best_scale, material_shapes, setup_targets
+from pins import best_scale, material_shapes, setup_targets
 
 from rheo.diagnose.residuals import REGIONS, locate
 from rheo.fit.convergence import StudyRecords
+from studies.lotion import add_material_arguments
 
 
 def main() -> None:
