@@ -20,9 +20,9 @@ from pathlib import Path
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.rheometer import RESULT_KEYS
 from rheo.experiments.virheometry import read_setup, setup_folders
-from rheo.fit.convergence import StudyRecords, material_rheometer_law
+from rheo.fit.convergence import StudyRecords
 from rheo.fit.dam_break import OFFSET_STEP, target
-from studies.lotion import BINGHAM, add_material_arguments, require_fit
+from studies.lotion import add_material_arguments, lotion_laws, require_fit
 
 
 def main() -> None:
@@ -38,7 +38,7 @@ def main() -> None:
         fit = json.loads(args.fit.read_text())
         laws = {"fit": tuple(fit[key]["value"] for key in RESULT_KEYS.values())}
     else:
-        laws = {"bingham": BINGHAM, "rheometer": material_rheometer_law(config, "Lotion")}
+        laws = lotion_laws(config)
     records = StudyRecords(args.out)
     for steps in args.intervals:
         for folder in setup_folders(config["data"], args.material):

@@ -12,9 +12,9 @@ from pathlib import Path
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.virheometry import read_setup, setup_folders
-from rheo.fit.convergence import StudyRecords, material_rheometer_law
+from rheo.fit.convergence import StudyRecords
 from rheo.fit.dam_break import target
-from studies.lotion import BINGHAM
+from studies.lotion import lotion_laws
 
 SCALES = (0.5, 1.0, 2.0)  # 0.5: the fit's default; 2.0: the PNGs' own 1920 x 1080
 
@@ -26,8 +26,7 @@ def main() -> None:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     simulation = config["simulation"]
-    laws = {"bingham": BINGHAM,
-            "rheometer": material_rheometer_law(config, "Lotion")}
+    laws = lotion_laws(config)
     records = StudyRecords(args.out)
     for folder in setup_folders(config["data"], "Lotion"):
         compared = {scale: target(read_setup(folder, scale), simulation) for scale in SCALES}

@@ -14,10 +14,9 @@ import numpy as np
 import warp as wp
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
-from rheo.fit.convergence import material_rheometer_law
 from rheo.io import write_json_atomic
 from rheo.physics import HerschelBulkley, kernels
-from studies.lotion import BINGHAM
+from studies.lotion import lotion_laws
 
 RATES = (0.3, 1.0, 3.0, 10.0, 30.0, 100.0)  # 1/s
 STRAIN = 3.0  # shear strain at the slowest rate
@@ -47,8 +46,7 @@ def main() -> None:
     args = parser.parse_args()
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     lam = config["simulation"]["lam"]
-    laws = {"bingham": BINGHAM,
-            "rheometer": material_rheometer_law(config, "Lotion")}
+    laws = lotion_laws(config)
     rates = np.array(RATES)
     out = {"rates_per_s": list(RATES), "lam_pa": lam, "step_s": STEP, "strain": STRAIN, "laws": {}}
     for name, (tau_y, K, n) in laws.items():

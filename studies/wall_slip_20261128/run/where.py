@@ -16,9 +16,9 @@ from pathlib import Path
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.dam_break import DamBreakScene
 from rheo.experiments.virheometry import read_setup, setup_folders
-from rheo.fit.convergence import StudyRecords, material_rheometer_law
+from rheo.fit.convergence import StudyRecords
 from rheo.fit.dam_break import target
-from studies.lotion import BINGHAM
+from studies.lotion import lotion_laws
 
 SURFACES = ("floor", "walls", "all")
 
@@ -44,8 +44,7 @@ def main() -> None:
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
     simulation = config["simulation"]
-    laws = {"bingham": BINGHAM,
-            "rheometer": material_rheometer_law(config, "Lotion")}
+    laws = lotion_laws(config)
     records = StudyRecords(args.out)
     folders = [f for f in setup_folders(config["data"], "Lotion") if not args.setups or f.name in args.setups]
     original = DamBreakScene.colliders
