@@ -66,6 +66,11 @@ def pooled(curves: list[FlowCurve], name: str = "pooled") -> FlowCurve:
 RESULT_KEYS = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}  # the law's parameters' keys in a fit's params.json
 
 
+def fitted_law(params: dict) -> tuple[float, float, float]:
+    """The law (tau_y, K, n) of a fit's params.json, read."""
+    return tuple(params[key]["value"] for key in RESULT_KEYS.values())
+
+
 def herschel_bulkley(rate: np.ndarray, tau_y: float, K: float, n: float) -> np.ndarray:
     return tau_y + K * np.asarray(rate) ** n
 

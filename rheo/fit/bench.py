@@ -26,7 +26,7 @@ import numpy as np
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
 from rheo.diagnose.candidates import Law
-from rheo.experiments.rheometer import RESULT_KEYS
+from rheo.experiments.rheometer import fitted_law
 from rheo.experiments.virheometry import setup_folders
 from rheo.fit.dam_break import comparisons, setup_files
 from rheo.fit.parallel import Evaluator
@@ -53,7 +53,7 @@ def measure_material(material: str, results: Path, benchmarks: Path, simulation:
     setups = setup_files([str(f / "setup.json") for f in folders], [str(f / "masks.npz") for f in folders])
     fit = results / material / "fit"
     params = json.loads((fit / "params.json").read_text())
-    x = np.log([params[key]["value"] for key in RESULT_KEYS.values()])
+    x = np.log(fitted_law(params))
     with Evaluator(partial(comparisons, setups, simulation, Law()), workers=workers) as evaluator:
         evaluator.map([(name, x) for name in setups])  # compile, warm up
         joint = timed(evaluator.map, [(name, x) for name in setups])

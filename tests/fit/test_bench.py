@@ -5,6 +5,7 @@ import time
 
 import pytest
 
+from rheo.experiments.rheometer import RESULT_KEYS
 from rheo.fit import bench
 
 SECONDS = {"ref_Paste_2.0_2.0_1": 0.4, "ref_Paste_7.0_7.0_2": 0.1}
@@ -23,7 +24,7 @@ def test_bench_times_each_setup_and_projects_the_fit_between_shared_and_serial_e
         (folder / "masks.npz").write_bytes(b"")
     fit = tmp_path / "Paste" / "fit"
     fit.mkdir(parents=True)
-    (fit / "params.json").write_text(json.dumps({key: {"value": 1.0} for key in bench.RESULT_KEYS.values()}))
+    (fit / "params.json").write_text(json.dumps({key: {"value": 1.0} for key in RESULT_KEYS.values()}))
     (fit / "history.csv").write_text("loss\n" + "0.1\n" * 300)
 
     record = bench.measure_material("Paste", tmp_path, tmp_path / "benchmarks", {}, workers=2)

@@ -18,7 +18,7 @@ import logging
 from pathlib import Path
 
 from rheo.config import WORKFLOW_CONFIG, workflow_settings
-from rheo.experiments.rheometer import RESULT_KEYS
+from rheo.experiments.rheometer import fitted_law
 from rheo.experiments.virheometry import read_setup, setup_folders
 from rheo.fit.convergence import StudyRecords
 from rheo.fit.dam_break import OFFSET_STEP, target
@@ -34,11 +34,7 @@ def main() -> None:
     require_fit(parser, args)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(message)s")
     config = workflow_settings(WORKFLOW_CONFIG)["virheometry"]
-    if args.fit:
-        fit = json.loads(args.fit.read_text())
-        laws = {"fit": tuple(fit[key]["value"] for key in RESULT_KEYS.values())}
-    else:
-        laws = lotion_laws(config)
+    laws = {"fit": fitted_law(json.loads(args.fit.read_text()))} if args.fit else lotion_laws(config)
     records = StudyRecords(args.out)
     for steps in args.intervals:
         for folder in setup_folders(config["data"], args.material):
