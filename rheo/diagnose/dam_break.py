@@ -19,7 +19,7 @@ import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES, OPEN_BOX, OPEN_DRAG, OPEN_STEP, Candidate, Law, open_rates
 from rheo.diagnose.residuals import Location, locate
-from rheo.diagnose.selection import Refit, choose, finalists_refitted, profile_refit, refits
+from rheo.diagnose.selection import Refit, best_refit, choose, finalists_refitted, profile_refit, refits
 from rheo.experiments.virheometry import Setup
 from rheo.fit.dam_break import Comparison, compare_law, shear_rate_band, targets
 from rheo.fit.parallel import Evaluator
@@ -137,8 +137,13 @@ class Diagnosis:
 
     def unexplained(self) -> str:
         """The verdict where no candidate is named: the mismatch that remains, where and when, in the setup that
-        shows the most of it, and what the open drag says of it where it explains it."""
+        shows the most of it, whether a decoy wins, and what the open drag says of it where it explains it."""
         verdict = f"no candidate explains the mismatch that remains ({self.worst(self.location)})"
+        decoy = best_refit(self.candidates)
+        if decoy and CANDIDATES[decoy.name].decoy and decoy.criterion < self.base.criterion - self.evidence:
+            verdict += (f"; {CANDIDATES[decoy.name].title} fits it better than every effect (criterion "
+                        f"{decoy.criterion - self.base.criterion:+.1f}), so no effect's gain can be told from that of "
+                        "a change that is no physics of the material")
         if self.open_explains:
             verdict += (f"; an open drag explains part of it ({self.base.loss:.3g} to {self.open.loss:.3g} px): it "
                         f"{open_drag_words(open_rates(self.open.x))}")

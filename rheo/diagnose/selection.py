@@ -4,7 +4,8 @@ information criterion so that a free parameter does not win by default.
 A fit's per-frame boundary distances over the fitted frames (of every setup) are taken as Gaussian residuals of one
 unknown scale; its Bayesian information criterion is then N log(SSE / N) + k log N (N frames, k fitted parameters). An
 effect is named when its refit lowers the criterion below the base model's by more than ``diagnose.evidence`` (by
-default 6: strong evidence on Kass and Raftery's scale), and the lowest criterion wins; otherwise nothing is missing.
+default 6: strong evidence on Kass and Raftery's scale), and the lowest criterion wins unless it is a decoy's;
+otherwise nothing is named.
 The frames held out of every fit judge the choice afterwards. (The residual of a base fit is not noise but the
 simulation's own error, which any extra freedom absorbs in part: at 2, positive evidence, a concealed case with no
 effect named wall adhesion at -2.1.)
@@ -21,7 +22,7 @@ from typing import TypeVar
 
 import numpy as np
 
-from rheo.diagnose.candidates import Candidate
+from rheo.diagnose.candidates import CANDIDATES, Candidate
 from rheo.fit.dam_break import from_stress_split, stress_split
 from rheo.fit.search import simplex_search
 
@@ -164,9 +165,15 @@ def finalists_refitted(found: Sequence[Refit], refit: Callable[[Refit], Refit], 
     return refits(ranked[:count], refit, side_by_side) + list(ranked[count:])
 
 
+def best_refit(found: Sequence[Refit]) -> Refit | None:
+    """The refit with the lowest criterion (None if there is none)."""
+    return min(found, key=lambda r: r.criterion, default=None)
+
+
 def choose(base: Refit, found: Sequence[Refit], evidence: float) -> Refit | None:
-    """The refit with the lowest criterion, if it undercuts the base model's by more than ``evidence``."""
-    if not found:
+    """The refit with the lowest criterion, if it undercuts the base model's by more than ``evidence`` and is not a
+    decoy's: where a change that is no physics of the material wins, an effect's gain says nothing of that effect."""
+    best = best_refit(found)
+    if best is None or CANDIDATES[best.name].decoy:
         return None
-    best = min(found, key=lambda r: r.criterion)
     return best if best.criterion < base.criterion - evidence else None

@@ -42,7 +42,7 @@ def test_an_effect_is_named_only_when_it_pays_for_its_parameter():
 
 def test_the_finalists_are_refitted_before_the_choice():
     """Air drag's profile ends just short of the decoy's criterion; refitted with every parameter free, it halves its
-    residual and wins. Only the finalists are refitted; with one finalist the decoy is named."""
+    residual and wins. Only the finalists are refitted; with one finalist the decoy wins and nothing is named."""
     base = _refit("base", 1.0, 2)
     found = [_refit("gravity_tilt", 0.40, 3), _refit("air_drag", 0.41, 3), _refit("density", 0.9, 3)]
 
@@ -52,7 +52,18 @@ def test_the_finalists_are_refitted_before_the_choice():
     two = finalists_refitted(found, refit, 2, 1)
     assert choose(base, two, EVIDENCE).name == "air_drag"
     assert {r.name: r.loss for r in two} == pytest.approx({"gravity_tilt": 0.396, "air_drag": 0.205, "density": 0.9})
-    assert choose(base, finalists_refitted(found, refit, 1, 1), EVIDENCE).name == "gravity_tilt"
+    assert choose(base, finalists_refitted(found, refit, 1, 1), EVIDENCE) is None
+
+
+def test_a_decoy_that_wins_names_nothing():
+    """A decoy is no physics of the material: where it fits best, an effect that also pays for its parameter is not
+    named, and nothing is named where a decoy alone pays."""
+    base = _refit("base", 1.0, 2)
+    tilt, friction = _refit("gravity_tilt", 0.3, 3), _refit("floor_friction", 0.5, 3)
+    assert friction.criterion < base.criterion - EVIDENCE
+    assert choose(base, [friction, tilt], EVIDENCE) is None
+    assert choose(base, [_refit("density", 0.3, 3)], EVIDENCE) is None
+    assert choose(base, [friction, _refit("density", 0.6, 3)], EVIDENCE) is friction
 
 
 def _logged(log: EvaluationLog, loss):

@@ -73,3 +73,20 @@ def test_an_open_drag_that_pays_for_its_rates_says_where_and_when_it_acts():
     unexplained = _diagnosis(np.full(20, 0.8))
     assert not unexplained.open_explains and "open drag" not in unexplained.unexplained()
     assert not unexplained.record()["open"]["explains"]
+
+
+def test_a_winning_decoy_is_said_not_named():
+    base = Refit("base", np.log([20.0, 2.0]), 1.0, 1.0, np.ones(FRAMES), 2)
+
+    def tilted(distance: float) -> Refit:
+        return Refit("gravity_tilt", np.r_[np.log([20.0, 2.0]), 5.0], distance, distance, np.full(FRAMES, distance), 3)
+
+    # SSE 20 -> 5 on 20 frames: the criterion drops by 20 ln 4 - ln 20 = 24.7
+    paying = Diagnosis(Law(n=1.0), base, [tilted(0.5)], None, {}, {}, _lagging_front(5), EVIDENCE).record()
+    assert paying["chosen"] is None
+    assert paying["verdict"].endswith("; gravity tilted along the channel (decoy) fits it better than every effect "
+                                      "(criterion -24.7), so no effect's gain can be told from that of a change that "
+                                      "is no physics of the material")
+    # SSE 20 -> 16.2: a drop of 1.2, short of the evidence: the decoy is not mentioned
+    short = Diagnosis(Law(n=1.0), base, [tilted(0.9)], None, {}, {}, _lagging_front(5), EVIDENCE).record()
+    assert "decoy" not in short["verdict"]
