@@ -19,7 +19,7 @@ import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES, OPEN_BOX, OPEN_DRAG, OPEN_STEP, Candidate, Law, open_rates
 from rheo.diagnose.residuals import Location, locate
-from rheo.diagnose.selection import Refit, best_refit, choose, finalists_refitted, profile_refit, refits
+from rheo.diagnose.selection import Refit, choose, finalists_refitted, pays, profile_refit, refits, winner
 from rheo.experiments.virheometry import Setup
 from rheo.fit.dam_break import Comparison, compare_law, shear_rate_band, targets
 from rheo.fit.parallel import Evaluator
@@ -118,7 +118,7 @@ class Diagnosis:
     @property
     def open_explains(self) -> bool:
         """Whether the open drag lowers the criterion below the base model's by the evidence asked of an effect."""
-        return self.open is not None and self.open.criterion < self.base.criterion - self.evidence
+        return self.open is not None and pays(self.open, self.base, self.evidence)
 
     @staticmethod
     def worst(location: dict[str, Location]) -> str:
@@ -139,8 +139,8 @@ class Diagnosis:
         """The verdict where no candidate is named: the mismatch that remains, where and when, in the setup that
         shows the most of it, whether a decoy wins, and what the open drag says of it where it explains it."""
         verdict = f"no candidate explains the mismatch that remains ({self.worst(self.location)})"
-        decoy = best_refit(self.candidates)
-        if decoy and CANDIDATES[decoy.name].decoy and decoy.criterion < self.base.criterion - self.evidence:
+        decoy = winner(self.base, self.candidates, self.evidence)
+        if decoy and CANDIDATES[decoy.name].decoy:
             verdict += (f"; {CANDIDATES[decoy.name].title} fits it better than every effect (criterion "
                         f"{decoy.criterion - self.base.criterion:+.1f}), so no effect's gain can be told from that of "
                         "a change that is no physics of the material")

@@ -165,15 +165,19 @@ def finalists_refitted(found: Sequence[Refit], refit: Callable[[Refit], Refit], 
     return refits(ranked[:count], refit, side_by_side) + list(ranked[count:])
 
 
-def best_refit(found: Sequence[Refit]) -> Refit | None:
-    """The refit with the lowest criterion (None if there is none)."""
-    return min(found, key=lambda r: r.criterion, default=None)
+def pays(refit: Refit, base: Refit, evidence: float) -> bool:
+    """Whether ``refit`` lowers the base model's criterion by more than ``evidence``."""
+    return refit.criterion < base.criterion - evidence
+
+
+def winner(base: Refit, found: Sequence[Refit], evidence: float) -> Refit | None:
+    """The refit with the lowest criterion, if it pays for its parameters (a decoy's included)."""
+    best = min(found, key=lambda r: r.criterion, default=None)
+    return best if best is not None and pays(best, base, evidence) else None
 
 
 def choose(base: Refit, found: Sequence[Refit], evidence: float) -> Refit | None:
-    """The refit with the lowest criterion, if it undercuts the base model's by more than ``evidence`` and is not a
-    decoy's: where a change that is no physics of the material wins, an effect's gain says nothing of that effect."""
-    best = best_refit(found)
-    if best is None or CANDIDATES[best.name].decoy:
-        return None
-    return best if best.criterion < base.criterion - evidence else None
+    """The winner, unless it is a decoy: where a change that is no physics of the material wins, an effect's gain says
+    nothing of that effect."""
+    best = winner(base, found, evidence)
+    return None if best is None or CANDIDATES[best.name].decoy else best

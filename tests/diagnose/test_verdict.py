@@ -38,16 +38,21 @@ def _lagging_front(last: int) -> dict[str, Location]:
     return {"setup_1": Location(np.zeros_like(missing), missing, [str(k + 1) for k in range(FRAMES)])}
 
 
+def _base() -> Refit:
+    """A base fit 1 px from the recording on each of the 20 frames, with two parameters."""
+    return Refit("base", np.log([20.0, 2.0]), 1.0, 1.0, np.ones(FRAMES), 2)
+
+
 def _diagnosis(open_distances: np.ndarray) -> Diagnosis:
     """No candidate named; the base fit's distances 1 px on 20 frames, the open drag's refit ``open_distances``."""
-    base = Refit("base", np.log([20.0, 2.0]), 1.0, 1.0, np.ones(FRAMES), 2)
+    base = _base()
     opened = Refit("open", np.r_[np.log([20.0, 2.0]), 0.0, 5.0, 0.0, 0.0], float(open_distances.mean()), 1.0,
                    open_distances, 6)
     return Diagnosis(Law(n=1.0), base, [], None, {}, {}, _lagging_front(5), EVIDENCE, opened)
 
 
 def test_a_named_effect_comes_with_the_mismatch_that_remains_after_it():
-    base = Refit("base", np.log([20.0, 2.0]), 1.0, 1.0, np.ones(FRAMES), 2)
+    base = _base()
     sliding = Refit("floor_friction", np.r_[np.log([20.0, 2.0]), np.log(0.3)], 0.5, 0.5, np.full(FRAMES, 0.5), 3)
     diagnosis = Diagnosis(Law(n=1.0), base, [sliding], sliding, {}, {}, _lagging_front(15), EVIDENCE,
                           remains=_lagging_front(3))
@@ -76,7 +81,7 @@ def test_an_open_drag_that_pays_for_its_rates_says_where_and_when_it_acts():
 
 
 def test_a_winning_decoy_is_said_not_named():
-    base = Refit("base", np.log([20.0, 2.0]), 1.0, 1.0, np.ones(FRAMES), 2)
+    base = _base()
 
     def tilted(distance: float) -> Refit:
         return Refit("gravity_tilt", np.r_[np.log([20.0, 2.0]), 5.0], distance, distance, np.full(FRAMES, distance), 3)
