@@ -9,7 +9,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from rheo.diagnose.dam_break import diagnose
-from rheo.experiments.rheometer import RESULT_KEYS, read_flow_curve
+from rheo.experiments.rheometer import PARAMETER_KEYS, RESULT_KEYS, read_flow_curve
 from rheo.fit.dam_break import setup_files
 from rheo.fit.search import EvaluationLog
 from rheo.io import read_json, write_json_atomic, write_text_atomic
@@ -24,8 +24,8 @@ log = start_stage(smk)
 started = time.time()
 setups = setup_files(smk.input.setups, smk.input.masks)
 fit = read_json(smk.input.fit)
-base_values = {name: fit[key]["value"] for name, key in RESULT_KEYS.items()}
-base_intervals = {name: tuple(fit[key]["interval"]) for name, key in RESULT_KEYS.items()}
+base_values = {name: fit[key]["value"] for name, key in PARAMETER_KEYS.items() if key in fit}
+base_intervals = {name: tuple(fit[key]["interval"]) for name, key in PARAMETER_KEYS.items() if key in fit}
 output = Path(smk.output.diagnosis)
 settings = smk.params.settings
 evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),

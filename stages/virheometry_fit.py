@@ -19,7 +19,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from rheo.diagnose.candidates import Law
-from rheo.experiments.rheometer import RESULT_KEYS
+from rheo.experiments.rheometer import PARAMETER_KEYS, RESULT_KEYS
 from rheo.fit.dam_break import (
     MOVING_RATE,
     comparisons,
@@ -41,7 +41,7 @@ log = start_stage(smk)
 started = time.time()
 settings, simulation = smk.params.settings, smk.params.simulation
 setups = setup_files(smk.input.setups, smk.input.masks)
-law = Law(n=settings.get("flow_index"))
+law = Law(n=settings.get("flow_index"), fitted_modulus=settings.get("mu") is not None)
 names = law.names
 low = np.log([settings[n][0] for n in names])
 high = np.log([settings[n][1] for n in names])
@@ -71,6 +71,9 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
 
     evaluate_many = partial(evaluations.evaluate_many, joint)  # points, phase -> losses, stored
     searched_flow_indices = law.n is None and bool(settings["flow_index_searches"])
+    if searched_flow_indices and law.fitted_modulus:
+        raise ValueError("virheometry.fit: a shear modulus box (mu) needs flow_index_searches: [] with n free; the "
+                         "flow-index searches hold the modulus")
     if searched_flow_indices:
         log_stress = stress_level(evaluate_many, settings["stress_rate"], (low, high), settings["stress_evaluations"])
         found = flow_index_profile(evaluate_many, log_stress, settings["flow_index_searches"],
@@ -126,7 +129,7 @@ if spread.ridge:
 else:
     log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
 band = shear_rate_band(list(details.values()))
-params = {RESULT_KEYS[n]: {"value": i.value, "interval": [i.low, i.high], "determined": i.determined,
+params = {PARAMETER_KEYS[n]: {"value": i.value, "interval": [i.low, i.high], "determined": i.determined,
                            "interval_open": list(i.open)} for n, i in intervals.items()}
 if law.n is not None:
     params[RESULT_KEYS["n"]] = {"value": law.n, "interval": [law.n, law.n], "determined": True, "fixed": True}
@@ -144,13 +147,14 @@ write_json_atomic(output, {
                                 "boundary_distance_px": d.distances.tolist(), "silhouette_iou": d.iou.tolist(),
                                 "outflow_iou": d.outflow_iou.tolist()} for name, d in details.items()},
     "within_tolerance": {"evaluations": spread.count, "ridge": spread.ridge, "laws": np.exp(spread.points).tolist(),
-                         **{RESULT_KEYS[n]: np.exp(r).tolist() for n, r in zip(names, spread.ranges, strict=True)},
+                         **{PARAMETER_KEYS[n]: np.exp(r).tolist() for n, r in zip(names, spread.ranges, strict=True)},
                          "spread_direction_log": None if spread.direction is None
                          else dict(zip(names, spread.direction.tolist(), strict=True))},
     "flow_index_profile": profile_record,
     "shear_rate_band_per_s": band, "loss_px": loss, "evidence": result.evidence["all_free"],
     "tolerance": settings["tolerance"],
-    "elastic_constants_Pa": {"mu": simulation["mu"], "lam": simulation["lam"]},
+    "elastic_constants_Pa": {"mu": intervals["mu"].value if "mu" in intervals else simulation["mu"],
+                             "lam": simulation["lam"]},
     "runtime_s": evaluations.earlier_seconds + time.time() - started})
 
 

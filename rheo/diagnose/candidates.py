@@ -92,16 +92,16 @@ class Candidate:
 
     def rung_starts(self, law: np.ndarray, value: float, next_value: float, band: tuple[float, float] | None,
                     base_law: np.ndarray) -> list[np.ndarray]:
-        """Where the law (log tau_y, log K) refitted at ``next_value`` may start besides the laws along the path,
-        given the law fitted at ``value`` and the base fit's ``base_law``: none unless the effect changes what the
-        law's parameters mean. Shear thinning changes what K means: at another flow index the same K is another
-        stress at the flow's shear rates, so the law starts where its flow curve matches the last one over the
-        shear-rate ``band`` (1/s) that the base fit's flow reaches. Thixotropy changes what tau_y means: the base
-        fit's is what the broken-down material showed, the intact material's is larger by what a plastic strain of
-        a few units takes away (``BREAKDOWN_STRAINS``), which no short search from the base law reaches: on the way
-        the loss rises (docs/settings.md, "Constants in the code")."""
+        """Where the material (log tau_y, log K, the rest kept) refitted at ``next_value`` may start besides the laws
+        along the path, given the law fitted at ``value`` and the base fit's ``base_law``: none unless the effect
+        changes what the law's parameters mean. Shear thinning changes what K means: at another flow index the same
+        K is another stress at the flow's shear rates, so the law starts where its flow curve matches the last one
+        over the shear-rate ``band`` (1/s) that the base fit's flow reaches. Thixotropy changes what tau_y means:
+        the base fit's is what the broken-down material showed, the intact material's is larger by what a plastic
+        strain of a few units takes away (``BREAKDOWN_STRAINS``), which no short search from the base law reaches:
+        on the way the loss rises (docs/settings.md, "Constants in the code")."""
         if self.name == "shear_thinning" and band is not None:
-            return [matched_law(law, value, next_value, band)]
+            return [np.r_[matched_law(law, value, next_value, band), law[2:]]]
         if self.name == "thixotropy":
             return [np.r_[base_law[0] + next_value * strain, base_law[1:]] for strain in BREAKDOWN_STRAINS]
         return []
@@ -162,21 +162,32 @@ def open_rates(x) -> tuple[float, ...]:
 @dataclass(frozen=True)
 class Law:
     """How a search vector maps to a material and effects: log tau_y, log K, then log n unless the flow index is
-    fixed at ``n``, then the ``candidate`` effect's coordinate, if any, or the open drag's four rates (``open``)."""
+    fixed at ``n``, then log mu where the shear modulus is fitted (``fitted_modulus``; else the simulation's), then
+    the ``candidate`` effect's coordinate, if any, or the open drag's four rates (``open``)."""
 
     n: float | None = None
     candidate: Candidate | None = None
     open: bool = False
+    fitted_modulus: bool = False
+
+    @property
+    def material_names(self) -> tuple[str, ...]:
+        """The material's coordinates: the law's, and the shear modulus where fitted."""
+        return ("tau_y", "K") + (("n",) if self.n is None else ()) + (("mu",) if self.fitted_modulus else ())
 
     @property
     def names(self) -> tuple[str, ...]:
-        law = ("tau_y", "K") if self.n is not None else ("tau_y", "K", "n")
-        return law + ((self.candidate.name,) if self.candidate else ()) + (OPEN_DRAG if self.open else ())
+        effect = ((self.candidate.name,) if self.candidate else ()) + (OPEN_DRAG if self.open else ())
+        return self.material_names + effect
 
     def unpack(self, x, effects: Effects | None = None) -> tuple[dict[str, float], Effects]:
-        """The law and the effects (``effects``, none by default, with the candidate's added) of a search vector."""
-        values = np.exp(np.asarray(x[:2 if self.n is not None else 3], dtype=float))
-        law = {"tau_y": values[0], "K": values[1], "n": self.n if self.n is not None else values[2]}
+        """The law (with ``mu`` where the shear modulus is fitted) and the effects (``effects``, none by default, with
+        the candidate's added) of a search vector."""
+        names = self.material_names
+        values = dict(zip(names, np.exp(np.asarray(x[:len(names)], dtype=float)), strict=True))
+        law = {"tau_y": values["tau_y"], "K": values["K"], "n": values.get("n", self.n)}
+        if self.fitted_modulus:
+            law["mu"] = values["mu"]
         effects = effects or Effects()
         if self.candidate is not None:
             law, effects = self.candidate.apply(self.candidate.value(float(x[-1])), law, effects)

@@ -107,8 +107,9 @@ class Diagnosis:
     def values(self, refit: Refit) -> dict[str, float]:
         """The law and the effect of a refit (a candidate's or the open drag's), in their units."""
         candidate = CANDIDATES.get(refit.name)
-        law, _ = Law(self.law.n, candidate).unpack(refit.x)
-        out = {"tau_y_Pa": law["tau_y"], "K_Pa_s_n": law["K"], "n": law["n"]}
+        law, _ = dataclasses.replace(self.law, candidate=candidate).unpack(refit.x)
+        out = {"tau_y_Pa": law["tau_y"], "K_Pa_s_n": law["K"], "n": law["n"]} | (
+            {"mu_Pa": law["mu"]} if "mu" in law else {})
         if candidate is not None:
             out[candidate.name] = candidate.value(float(refit.x[-1]))
         if refit.name == "open":
@@ -212,7 +213,7 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
     for name, (record, masks) in setups.items():
         with open(record) as f:
             records[name] = Setup.from_record(json.load(f), np.load(masks)["masks"])
-    law = Law(n=fit_settings.get("flow_index"))
+    law = Law(n=fit_settings.get("flow_index"), fitted_modulus=fit_settings.get("mu") is not None)
     x_base = np.log([base_values[n] for n in law.names])
     steps = law_steps(law.names, base_intervals, settings["law_step"])
     law_box = (np.log([fit_settings[n][0] for n in law.names]), np.log([fit_settings[n][1] for n in law.names]))
@@ -221,7 +222,8 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
     skipped = sorted(set(settings["candidates"]) - {c.name for c in candidates})
     if skipped:
         logger.info("not applicable here: %s", ", ".join(skipped))
-    laws = {"base": law, "open": Law(law.n, open=True), **{c.name: Law(law.n, c) for c in candidates}}
+    laws = {"base": law, "open": dataclasses.replace(law, open=True),
+            **{c.name: dataclasses.replace(law, candidate=c) for c in candidates}}
     with Evaluator(partial(objectives, setups, simulation, laws), workers) as evaluator:
 
         def evaluate(law_name: str) -> Callable[[np.ndarray, str], float]:
@@ -242,7 +244,7 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
         split_step = (settings["stress_step"], settings["share_step"])
         found = refits(candidates, lambda c: profile_refit(c, evaluate(c.name), log.best, x_base, law_box,
                                                            split_step, settings["rung_evaluations"], band,
-                                                           law.n or 1.0),
+                                                           law.n),
                        workers)  # a candidate per worker: a small setup's simulation does not wait for a large one
 
         def searched(law_name: str, start: np.ndarray, effect_step, effect_low, effect_high, evaluations: int,

@@ -72,7 +72,7 @@ Best = Callable[[str], dict]
 
 def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: np.ndarray,
                   law_box: tuple[np.ndarray, np.ndarray], split_step: tuple[float, float], rung_evaluations: int,
-                  band: tuple[float, float] | None = None, flow_index: float = 1.0) -> Refit:
+                  band: tuple[float, float] | None = None, flow_index: float | None = 1.0) -> Refit:
     """The candidate's best fit along its profile: from the base fit with the effect at its null (or the nearest the box
     allows, so that the refit, a model holding the base one, ends no worse), the effect climbs its rungs of magnitude
     and the law is refitted at each by a short Nelder-Mead search (``rung_evaluations``) in the law's stress at the
@@ -80,8 +80,9 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
     ``split_step``, log units) from the best of its start and the start's stress a step down and up: the silhouettes
     fix that stress tightly and the share loosely, so an effect shifts the stress a little either way and moves the
     law along that valley, often far (walls adhering with 20 Pa, which the base fit answered with tau_y 14.3 and K 4.5
-    Pa s, ask for 20 and 1.5). ``flow_index``: the law's n where ``base_x`` holds no log n (shear thinning's rung gives
-    its own). An effect the base fit compensated with a very different law (a slow gate with a strong material, say)
+    Pa s, ask for 20 and 1.5). ``flow_index``: the law's n, or None where ``base_x`` holds log n (after log K; shear
+    thinning's rung gives its own); what follows the law in ``base_x`` (the shear modulus, where fitted) is searched
+    beside it. An effect the base fit compensated with a very different law (a slow gate with a strong material, say)
     needs that law moved far: each rung starts from the law extrapolated from the two before (continuation along the
     valley), unless the previous rung's law or the base fit's does better there (where the valley turns: a sliding floor
     first lowers the yield stress that held the material back, then, once the material slides, needs it back). An effect
@@ -103,7 +104,7 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
             return loss
 
         def n_of(y: np.ndarray) -> float:  # a law's flow index: its own log n, the rung's, or the fixed one
-            return math.exp(y[2]) if len(y) > 2 else candidate.flow_index(candidate.value(rung), flow_index)
+            return math.exp(y[2]) if flow_index is None else candidate.flow_index(candidate.value(rung), flow_index)
 
         def from_split(z: np.ndarray) -> np.ndarray:
             return np.clip(np.r_[from_stress_split(z[:2], n_of(z), rate)[:2], z[2:]], *law_box)

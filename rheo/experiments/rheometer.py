@@ -64,6 +64,7 @@ def pooled(curves: list[FlowCurve], name: str = "pooled") -> FlowCurve:
 
 
 RESULT_KEYS = {"tau_y": "tau_y_Pa", "K": "K_Pa_s_n", "n": "n"}  # the law's parameters' keys in a fit's params.json
+PARAMETER_KEYS = RESULT_KEYS | {"mu": "mu_Pa"}  # and the shear modulus', where fitted
 
 
 def fitted_law(params: dict) -> tuple[float, float, float]:

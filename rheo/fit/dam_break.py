@@ -115,16 +115,20 @@ class DamBreakTarget:
             raise ValueError(f"{self.setup.folder}: {self.setup.fps} fps is not a whole number of offset steps")
         self.mu, self.lam = elastic
 
-    def material(self, tau_y: float, K: float, n: float) -> HerschelBulkley:
-        return HerschelBulkley(tau_y=tau_y, K=K, n=n, mu=self.mu, lam=self.lam, density=self.setup.density)
+    def material(self, tau_y: float, K: float, n: float, mu: float | None = None) -> HerschelBulkley:
+        """The material of a law, with the shear modulus ``mu`` (Pa) where given, else the target's."""
+        return HerschelBulkley(tau_y=tau_y, K=K, n=n, mu=self.mu if mu is None else mu, lam=self.lam,
+                               density=self.setup.density)
 
-    def compare(self, tau_y: float, K: float, n: float, effects: Effects | None = None) -> Comparison:
-        return self.score(self.simulate(tau_y, K, n, effects))
+    def compare(self, tau_y: float, K: float, n: float, effects: Effects | None = None,
+                mu: float | None = None) -> Comparison:
+        return self.score(self.simulate(tau_y, K, n, effects, mu))
 
-    def simulate(self, tau_y: float, K: float, n: float, effects: Effects | None = None) -> Trajectory:
+    def simulate(self, tau_y: float, K: float, n: float, effects: Effects | None = None,
+                 mu: float | None = None) -> Trajectory:
         """The rollout every candidate offset's frames are taken from, sampled every ``OFFSET_STEP`` s."""
         steps = self.offsets + (len(self.masks) - 1) * self.frame_steps
-        return self.scene.rollout(self.material(tau_y, K, n), steps * OFFSET_STEP, OFFSET_STEP,
+        return self.scene.rollout(self.material(tau_y, K, n, mu), steps * OFFSET_STEP, OFFSET_STEP,
                                   self.effects if effects is None else effects)
 
     def score(self, trajectory: Trajectory) -> Comparison:

@@ -118,6 +118,26 @@ def test_a_profile_follows_the_law_an_effect_needs_far_from_the_base_fit(tmp_pat
     assert len(log.records) <= 1 + rungs * 5 + (rungs - 1) * 3 + 7
 
 
+def test_a_profile_searches_a_fitted_shear_modulus_beside_the_law(tmp_path):
+    """With the shear modulus fitted, the base point carries log mu after the law: each rung's short search moves it
+    too. The data want a Coulomb coefficient of 0.3 and a modulus of 600 Pa, where the base fit held 300."""
+    candidate = CANDIDATES["floor_friction"]
+    base_x = np.log([8.0, 2.5, 300.0])
+    box = (np.r_[LAW_BOX[0], np.log(30.0)], np.r_[LAW_BOX[1], np.log(3000.0)])
+    target = candidate.coordinate(0.3)
+
+    def loss(p: np.ndarray) -> float:
+        return 0.01 + _valley_loss(p, _split(base_x)) + 0.2 * (p[2] - math.log(600.0)) ** 2 + 0.2 * (
+            p[3] - target) ** 2
+
+    log = EvaluationLog(tmp_path / "log.json", "key")
+    refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, box, SPLIT_STEP, 8)
+    assert len(refit.x) == 4 and refit.parameters == 4
+    assert candidate.value(refit.x[3]) == pytest.approx(0.3)
+    assert abs(refit.x[2] - math.log(600.0)) < 0.5 * math.log(2.0)  # mu moved most of the way from 300 Pa
+    assert refit.loss < loss(np.r_[base_x[:2], base_x[2], target])
+
+
 def test_a_profile_follows_a_valley_that_turns_back_to_the_base_law(tmp_path):
     """A sticky-floor fit compensated a floor of coefficient 0.3 with a weaker material; along the rungs the law
     that fits first moves away from the base fit (log tau_y / viscous stress down 1.5 at 1.0) and then back to it at
@@ -298,6 +318,12 @@ def test_candidates_at_their_null_values_give_back_the_base_law_and_effects():
     assert tilted.gravity_tilt == pytest.approx(math.radians(5.0))
     thinning, _ = Law(1.0, CANDIDATES["shear_thinning"]).unpack(np.r_[x, math.log(0.5)])
     assert thinning["n"] == pytest.approx(0.5)
+    # the shear modulus, where fitted, follows the law and stays what it is under every effect
+    assert Law(n=1.0, fitted_modulus=True).names == ("tau_y", "K", "mu")
+    assert Law(candidate=CANDIDATES["air_drag"], fitted_modulus=True).names == ("tau_y", "K", "n", "mu", "air_drag")
+    thinning, _ = Law(1.0, CANDIDATES["shear_thinning"], fitted_modulus=True).unpack(np.r_[x, math.log(400.0),
+                                                                                            math.log(0.5)])
+    assert thinning == pytest.approx({"tau_y": 8.0, "K": 2.0, "n": 0.5, "mu": 400.0})
 
 
 def test_a_refits_first_simplex_is_as_wide_as_the_base_fits_interval():

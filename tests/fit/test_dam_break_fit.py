@@ -73,6 +73,19 @@ def test_a_wall_slip_in_the_settings_is_the_physics_every_law_and_candidate_is_s
     assert gated.loss == slipping.compare(5.0, 0.5, 0.8, Effects(wall_slip=300.0, gate_lift_time=0.05)).loss
 
 
+def test_a_fitted_shear_modulus_is_the_one_the_material_is_simulated_with(channel):
+    setup = channel((0.0, 0.07, -0.01, 0.05), frames=2)
+    simulation = {"cells_per_height": 4, "cells_across": 4, "particles_per_cell": 2, "cfl": 0.8, "mu": 2e4,
+                  "lam": 2e4, "max_offset": 0.02}
+    law, fitted = np.log([5.0, 0.5]), Law(n=0.8, fitted_modulus=True)
+    assert fitted.names == ("tau_y", "K", "mu")
+    held = target(setup, simulation)
+    assert compare_law(held, fitted, np.r_[law, np.log(2e4)]).loss == held.compare(5.0, 0.5, 0.8).loss
+    soft = compare_law(held, fitted, np.r_[law, np.log(50.0)])
+    assert soft.loss == target(setup, {**simulation, "mu": 50.0}).compare(5.0, 0.5, 0.8).loss != held.compare(
+        5.0, 0.5, 0.8).loss
+
+
 def test_frames_held_out_between_fitted_ones_and_at_the_end_are_scored_apart(channel):
     """Of 8 frames, every 3rd (3 and 6) is held out between fitted ones and the last quarter (7 and 8) as a
     prediction: each loss is the mean boundary distance over its own frames, the offset is chosen on the fitted

@@ -78,3 +78,29 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     assert scores["suite"] == {"seed": 5, "count": 2}  # as the folder's suite.json says
     assert scores["open_drag_fitted"] == sum(d["open"] is not None for d in (plain, diagnosis))
     assert not list(result.glob("*/*/*.evaluations.json"))
+
+
+def test_a_case_of_another_shear_modulus_is_fitted_and_diagnosed_with_the_modulus_free(workflow):
+    cases = workflow.root / "cases"
+    cases.mkdir()
+    (cases / "soft.yaml").write_text("name: soft\neffects: []\nelastic: {mu: 120.0, lam: 10000.0}\n")
+    (workflow.root / "quick.yaml").write_text(
+        "virheometry: {simulation: {max_offset: 0.05, cells_per_height: 4, cells_across: 4}}\n"
+        "concealed:\n  cases: cases\n  scene: {frames: 4}\n"
+        "  lab: {cells_per_height: 5, cells_across: 5}\n"
+        "  fit: {samples: 3, evaluations: 2, starts: 1, rounds: 1, mu: [30.0, 3000.0]}\n"
+        "diagnose: {candidates: [air_drag], rung_evaluations: 2, refit_evaluations: 2, open_evaluations: 0}\n")
+    run = workflow.run("results/concealed/soft/diagnosis/diagnosis.json", "--configfile", "quick.yaml")
+    assert run.returncode == 0, run.stderr[-3000:]
+    result = workflow.root / "results/concealed/soft"
+    fit = json.loads((result / "fit/params.json").read_text())
+    mu = fit["mu_Pa"]
+    assert 30.0 <= mu["value"] <= 3000.0 and mu["interval"][0] <= mu["value"] <= mu["interval"][1]
+    assert fit["elastic_constants_Pa"]["mu"] == mu["value"] and fit["elastic_constants_Pa"]["lam"] == 1e4
+    history = (result / "fit/history.csv").read_text().splitlines()
+    assert history[0] == "phase,evaluation,loss_px,tau_y,K,mu"
+    assert len({line.split(",")[-1] for line in history[1:]}) > 3  # the survey spans the modulus too
+    diagnosis = json.loads((result / "diagnosis/diagnosis.json").read_text())
+    assert diagnosis["base"]["values"]["mu_Pa"] == pytest.approx(mu["value"])
+    drag, = diagnosis["candidates"]
+    assert drag["parameters"] == 4 and 30.0 <= drag["values"]["mu_Pa"] <= 3000.0
