@@ -53,7 +53,8 @@ for case, d_path, t_path, f_path, o_path in zip(smk.params.cases, smk.input.diag
               "core_bias_pct": [bias(base, truth), bias(after, truth)],
               "open_drag": diagnosis["open"] and {k: diagnosis["open"][k]
                                                       for k in ("explains", "delta_criterion", "words")},
-              "runtime_min": diagnosis["runtime_s"] / 60}
+              "runtime_min": diagnosis["runtime_s"] / 60,
+              "shear_modulus_Pa": [fit["elastic_constants_Pa"]["mu"], truth["mu_Pa"]]}  # the fit's, the lab's
     # the effect shows where the base fit cannot come as close to the recording as the truth itself does
     record["shown"] = bool(fit["loss_px"] > oracle["loss_px"]) if modelled(record, candidates) else None
     records.append(record)
@@ -63,6 +64,7 @@ for case, d_path, t_path, f_path, o_path in zip(smk.params.cases, smk.input.diag
                  before_after(held), before_after(last),
                  f"{bias(base, truth):.1f} / {bias(after, truth):.1f}",
                  open_drag(diagnosis), f"{fit['loss_px']:.3g} / {oracle['loss_px']:.3g}",
+                 "{:.3g} / {:.3g}".format(*record["shear_modulus_Pa"]),
                  f"{diagnosis['runtime_s'] / 60:.1f}"])
     log.info("%s: concealed %s, named %s; held out between fitted frames %s, last frames %s; core bias %.1f -> %.1f "
              "%%", case, concealed, chosen, before_after(held), before_after(last), bias(base, truth),
@@ -87,7 +89,8 @@ table = table_tag(["case", "concealed effects", "named", "fitted magnitude", "be
                    "held out between fitted frames, before / after (px)",
                    "last frames (a prediction), before / after (px)", "core bias before / after (%)",
                    "open drag (criterion): where and when it acts",
-                   "base fit / truth in the fit's simulation (px)", "diagnosis (min)"], rows)
+                   "base fit / truth in the fit's simulation (px)", "shear modulus, fit / lab (Pa)",
+                   "diagnosis (min)"], rows)
 body = (f"<h2>Confusion table</h2>{score}{confusion_section(truths, named, labels)}"
         f"<h2>Cases</h2>{table}<p>Each case's page: results/concealed/&lt;case&gt;/diagnosis/report.html.</p>")
 write_text_atomic(smk.output.html, page("Concealed effects: what the diagnosis names", body))

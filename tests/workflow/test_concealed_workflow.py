@@ -71,10 +71,13 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     summary = (result / "summary.html").read_text()
     assert "Confusion table" in summary and "sliding" in summary and "plain" in summary
     assert "base fit / truth in the fit" in summary and "last frames (a prediction)" in summary
+    assert "shear modulus, fit / lab (Pa)" in summary
     scores = json.loads((result / "summary.json").read_text())
     assert scores["cases"] == 2 and scores["with_effect"] == 1 and scores["null"] == 1
     assert scores["top1"] == (diagnosis["chosen"] == "floor_friction")
     assert [c["case"] for c in scores["by_case"]] == ["plain", "sliding"] and scores["code_version"]
+    # the modulus the fit held (the config's) beside the lab's
+    assert [c["shear_modulus_Pa"] for c in scores["by_case"]] == [[300.0, truth["mu_Pa"]]] * 2
     assert scores["suite"] == {"seed": 5, "count": 2}  # as the folder's suite.json says
     assert scores["open_drag_fitted"] == sum(d["open"] is not None for d in (plain, diagnosis))
     assert not list(result.glob("*/*/*.evaluations.json"))
