@@ -93,6 +93,25 @@ def targets(scores: dict) -> list[tuple[str, str, bool | None]]:
     ]
 
 
+def case_table(records: list[dict]) -> str:
+    """The cases as a Markdown table: what each concealed, whether its recording shows it, what was named, the named
+    refit's change of the held-out losses, the core parameters' bias before and after it (and the shear modulus, the
+    fit's and the lab's, where the summary gives it)."""
+    modulus = any("shear_modulus_Pa" in r for r in records)
+    header = ["case", "concealed", "shown", "named", "held out", "last frames", "core bias (%)"]
+    lines = [header + (["shear modulus, fit / lab (Pa)"] if modulus else [])]
+    for r in records:
+        change = ["-" if c is None else f"{c:+.0f} %" for c in (r["held_out_change_pct"], r["forecast_change_pct"])]
+        row = [r["case"], ", ".join(f"{e['effect']} {e['magnitude']:g}" for e in r["concealed"]) or "none",
+               "-" if r["shown"] is None else "yes" if r["shown"] else "no", r["named"], *change,
+               "{:.1f} -> {:.1f}".format(*r["core_bias_pct"])]
+        if modulus:
+            row.append("-" if "shear_modulus_Pa" not in r else "{:.3g} / {:.3g}".format(*r["shear_modulus_Pa"]))
+        lines.append(row)
+    rows = ["| " + " | ".join(map(str, line)) + " |" for line in lines]
+    return "\n".join([rows[0], "|" + "---|" * len(lines[0]), *rows[1:]])
+
+
 def target_records(checked: list[tuple[str, str, bool | None]]) -> list[dict]:
     return [{"target": asked, "measured": figure, "met": holds} for asked, figure, holds in checked]
 
@@ -114,6 +133,7 @@ def main(argv: list[str] | None = None) -> None:
     print(f"{args.summary}: suite {stored.get('suite')}, code {stored.get('code_version')}")
     for asked, figure, holds in checked:
         print(f"  {'-' if holds is None else 'met' if holds else 'NOT met':8} {asked}: {figure}")
+    print(case_table(records))
     if args.out:
         write_json_atomic(args.out, {"summary": str(args.summary), "suite": stored.get("suite"),
                                      "code_version": stored.get("code_version"), "scores": scores,

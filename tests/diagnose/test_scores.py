@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from rheo.diagnose.scores import main, suite_scores, targets, truth_label
+from rheo.diagnose.scores import case_table, main, suite_scores, targets, truth_label
 
 CANDIDATES = ["floor_friction", "thixotropy", "gravity_tilt"]
 
@@ -16,13 +16,13 @@ def _case(concealed: list[str], named: str, held: float | None, last: float | No
             "open_drag": open_drag, "runtime_min": 10.0}
 
 
-RECORDS = [
+RECORDS = [dict(record, case=f"c{i}") for i, record in enumerate([
     _case(["floor_friction"], "floor_friction", -50.0, -40.0, [20.0, 5.0], True),  # right, shown
     _case(["thixotropy", "floor_friction"], "floor_friction", -10.0, None, [30.0, 35.0], True),  # the second: right
     _case(["thixotropy"], "gravity_tilt", -35.0, -31.0, [10.0, 8.0], False),  # a wrong name, not shown
     _case([], "none", None, None, [0.0, 0.0], None, {"explains": True}),  # null, nothing named
     _case(["camera_roll"], "thixotropy", -60.0, -20.0, [0.0, 0.0], None, None),  # outside: a false alarm
-]
+])]
 
 
 def test_the_scores_count_each_kind_of_case_as_counted_by_hand():
@@ -58,6 +58,15 @@ def test_the_command_scores_a_stored_summary_with_its_candidates(tmp_path, capsy
     # without --candidates the configuration's defaults, among which thixotropy, floor friction and the tilt
     main([str(summary), "--out", str(out)])
     assert json.loads(out.read_text())["scores"] == stored["scores"]
+
+
+def test_the_cases_table_has_a_row_per_case_as_stored():
+    table = case_table(RECORDS).splitlines()
+    assert len(table) == 2 + len(RECORDS) and table[1] == "|---|---|---|---|---|---|---|"
+    assert table[3] == "| c1 | thixotropy 1, floor_friction 1 | yes | floor_friction | -10 % | - | 30.0 -> 35.0 |"
+    assert table[5] == "| c3 | none | - | none | - | - | 0.0 -> 0.0 |"
+    with_modulus = case_table([dict(RECORDS[0], shear_modulus_Pa=[300.0, 146.0])]).splitlines()
+    assert with_modulus[0].endswith("| shear modulus, fit / lab (Pa) |") and with_modulus[2].endswith("| 300 / 146 |")
 
 
 def test_a_file_that_is_no_summary_gets_one_error_naming_it(tmp_path, capsys):
