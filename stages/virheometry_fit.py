@@ -71,13 +71,13 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
 
     evaluate_many = partial(evaluations.evaluate_many, joint)  # points, phase -> losses, stored
     searched_flow_indices = law.n is None and bool(settings["flow_index_searches"])
-    if searched_flow_indices and law.fitted_modulus:
-        raise ValueError("virheometry.fit: a shear modulus box (mu) needs flow_index_searches: [] with n free; the "
-                         "flow-index searches hold the modulus")
     if searched_flow_indices:
-        log_stress = stress_level(evaluate_many, settings["stress_rate"], (low, high), settings["stress_evaluations"])
+        # the shear modulus, where fitted, starts at the simulation's (within its box)
+        rest = np.clip(np.log([simulation["mu"]]), low[3:], high[3:]) if law.fitted_modulus else []
+        log_stress = stress_level(evaluate_many, settings["stress_rate"], (low, high), settings["stress_evaluations"],
+                                  rest=rest)
         found = flow_index_profile(evaluate_many, log_stress, settings["flow_index_searches"],
-                                   settings["stress_rate"], settings["flow_index_evaluations"], (low, high))
+                                   settings["stress_rate"], settings["flow_index_evaluations"], (low, high), rest)
         # the surface is centred on the searches' best law, without simplex searches
         simplex_evaluations, step = 0, 0.0
     else:

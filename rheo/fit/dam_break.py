@@ -223,43 +223,48 @@ def from_stress_split(z: np.ndarray, n: float, rate: float) -> np.ndarray:
 
 
 def clipped_law(z: np.ndarray, n: float, rate: float, box: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    """``from_stress_split``'s law, clipped to ``box``."""
-    return np.clip(from_stress_split(z, n, rate), *box)
+    """``from_stress_split``'s law (``z``'s first two entries), then ``z``'s further coordinates (the shear modulus'
+    log, where fitted), clipped to ``box``."""
+    return np.clip(np.r_[from_stress_split(z[:2], n, rate), z[2:]], *box)
 
 
 def stress_level(evaluate_many: EvaluateMany, rate: float, box: tuple[np.ndarray, np.ndarray], evaluations: int,
-                 n: float = 1.0) -> float:
+                 n: float = 1.0, rest: Sequence[float] = ()) -> float:
     """The log of the stress at ``rate`` that fits best among the laws of flow index ``n`` whose stress is split
-    evenly (phase "stress"): bounded Brent over the stresses whose law lies in ``box``, at most ``evaluations``
-    iterations, to ``STRESS_TOLERANCE``. A dam break's silhouettes fix that stress tightly and the rest of the law
-    loosely, so one line search places the flow-index searches' starts in the valley of good laws (on Lotion a survey
-    of 12 points of the box came within 3 to 5 times the fit's loss at best)."""
+    evenly (phase "stress"), the coordinates after the law held at ``rest``: bounded Brent over the stresses whose
+    law lies in ``box``, at most ``evaluations`` iterations, to ``STRESS_TOLERANCE``. A dam break's silhouettes fix
+    that stress tightly and the rest of the law loosely, so one line search places the flow-index searches' starts in
+    the valley of good laws (on Lotion a survey of 12 points of the box came within 3 to 5 times the fit's loss at
+    best)."""
     (tau_y_low, k_low), (tau_y_high, k_high) = np.exp(box[0][:2]), np.exp(box[1][:2])
     viscous = rate ** n
     bounds = (np.log(2.0 * max(tau_y_low, k_low * viscous)), np.log(2.0 * min(tau_y_high, k_high * viscous)))
-    result = minimize_scalar(lambda z: evaluate_many([clipped_law(np.array([z, 0.0]), n, rate, box)], "stress")[0],
+    result = minimize_scalar(lambda z: evaluate_many([clipped_law(np.r_[z, 0.0, rest], n, rate, box)], "stress")[0],
                              bounds=bounds, method="bounded",
                              options={"xatol": STRESS_TOLERANCE, "maxiter": evaluations})
     return float(result.x)
 
 
 def flow_index_profile(evaluate_many: EvaluateMany, log_stress: float, flow_indices: Sequence[float], rate: float,
-                      evaluations: int, box: tuple[np.ndarray, np.ndarray]) -> list[tuple[np.ndarray, float]]:
+                       evaluations: int, box: tuple[np.ndarray, np.ndarray], rest: Sequence[float] = (),
+                       rest_step: float = 0.5) -> list[tuple[np.ndarray, float]]:
     """A search of tau_y and K at each of ``flow_indices`` (phases "n <value>", side by side), each from the law of
     that index with the stress exp(``log_stress``) at ``rate`` (``stress_level``'s) split evenly between yield and
     viscous stress, in those two coordinates (``stress_split``; Nelder-Mead, initial steps ``STRESS_STEP`` and
-    ``SHARE_STEP``, ``evaluations`` each, laws clipped to ``box``): each search's best law and its loss.
+    ``SHARE_STEP``, ``evaluations`` each, laws clipped to ``box``), and of the coordinates after the law (the shear
+    modulus' log, where fitted) from ``rest`` (initial step ``rest_step``): each search's best point and its loss.
 
     A dam break's silhouettes fix the stress at the shear rates of its flow tightly and its split between yield and
     viscous stress and the flow index loosely, so equally good laws lie along a curved valley in (tau_y, K, n), with
     basins along it that a survey of the box is too coarse to tell apart. Keeping the stress puts every search's
     start in the valley; the even split lets it reach a basin on either side, where a survey's best may lie at an
     extreme split in a worse basin (docs/settings.md, `flow_index_searches`)."""
-    start = np.array([log_stress, 0.0])
+    start = np.r_[log_stress, 0.0, rest]
+    steps = np.r_[STRESS_STEP, SHARE_STEP, np.full(len(rest), rest_step)]
 
     def search(n: float) -> tuple[np.ndarray, float]:
         z, loss = simplex_search(lambda z, phase: evaluate_many([clipped_law(z, n, rate, box)], phase)[0], start,
-                                 np.array([STRESS_STEP, SHARE_STEP]), evaluations, f"n {n:g}")
+                                 steps, evaluations, f"n {n:g}")
         return clipped_law(z, n, rate, box), loss
 
     with ThreadPoolExecutor(len(flow_indices)) as threads:

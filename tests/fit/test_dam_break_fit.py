@@ -145,3 +145,28 @@ def test_the_stress_search_and_flow_index_searches_find_the_deeper_basin_along_t
     stress = tau_y + K * rate
     assert stress == pytest.approx(20.0, rel=0.05) and tau_y / stress == pytest.approx(0.68, abs=0.1)
     assert sorted(set(phases)) == ["n 0.4", "n 0.7", "n 1", "n 1.4"] and len(phases) <= 4 * 12
+
+
+def test_the_flow_index_searches_move_a_fitted_shear_modulus_from_its_start():
+    """The same valley with a shear modulus the data want at 600 Pa: the stress search holds it at its start (300
+    Pa), each flow-index search moves it with the law."""
+    rate, box = 10.0, (np.log([0.1, 0.1, 0.1, 30.0]), np.log([300.0, 300.0, 2.0, 3000.0]))
+
+    def loss(x):
+        log_stress, logit_share = stress_split(x[:3], rate)
+        return 0.0275 + x[2] ** 2 + 0.01 * (logit_share - 0.75) ** 2 + 0.5 * (log_stress - np.log(20.0)) ** 2 + (
+            0.2 * (x[3] - np.log(600.0)) ** 2)
+
+    held = []
+
+    def evaluate_many(points, phase):
+        held.extend(x[3] for x in points if phase == "stress")
+        assert all(len(x) == 4 and np.all((box[0] <= x) & (x <= box[1])) for x in points)
+        return [loss(x) for x in points]
+
+    log_stress = stress_level(evaluate_many, rate, box, 8, rest=[np.log(300.0)])
+    assert np.exp(log_stress) == pytest.approx(20.0, rel=0.05) and np.allclose(held, np.log(300.0))
+    found = flow_index_profile(evaluate_many, log_stress, [0.7, 1.0], rate, 24, box, [np.log(300.0)])
+    assert [np.exp(x[2]) for x, _ in found] == pytest.approx([0.7, 1.0])
+    (x, value), = [f for f in found if np.exp(f[0][2]) == pytest.approx(1.0)]
+    assert abs(x[3] - np.log(600.0)) < 0.35 and value < loss(np.r_[x[:3], np.log(300.0)])
