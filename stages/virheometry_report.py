@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rheo.experiments.rheometer import RESULT_KEYS, read_flow_curve
+from rheo.experiments.rheometer import PARAMETER_KEYS, RESULT_KEYS, read_flow_curve
 from rheo.fit.uncertainty import Interval, log_draws, tolerance_level
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import headline, interval_text
@@ -19,16 +19,18 @@ log = start_stage(smk)
 material = smk.wildcards.material
 params = read_json(smk.input.params)
 KEYS = dict(zip(RESULT_KEYS.values(), ("tau_y (Pa)", "K (Pa s^n)", "n"), strict=True))
+# the law's rows, and the shear modulus' where the fit searched it
+FITTED = KEYS | ({PARAMETER_KEYS["mu"]: "shear modulus mu (Pa)"} if PARAMETER_KEYS["mu"] in params else {})
 
 
 def law_rows(fit: dict) -> list[list[str]]:
     return [[label, f"{fit[key]['value']:.4g}", interval_text(fit[key]),
-             "yes" if fit[key]["determined"] else "no"] for key, label in KEYS.items()]
+             "yes" if fit[key]["determined"] else "no"] for key, label in FITTED.items()]
 
 
 def spread_text(fit: dict) -> str:
     spread = fit["within_tolerance"]
-    ranges = ", ".join(f"{label} {spread[key][0]:.3g}-{spread[key][1]:.3g}" for key, label in KEYS.items())
+    ranges = ", ".join(f"{label} {spread[key][0]:.3g}-{spread[key][1]:.3g}" for key, label in FITTED.items())
     verdict = ("the recordings leave the law on a ridge: materials far apart fit them equally well"
                if spread["ridge"] else "no ridge")
     alone = "; one setup only" if len(fit["setups"]) == 1 else ""
@@ -65,7 +67,9 @@ sections = [("Flow curve", figure_tag(flow, "recovered law, shear stress (Pa) ag
              f"its profile stays within it, below); an end marked &lt; or &gt; is open (the region goes on past the "
              f"evaluations' reach). {spread_text(params)}.{pinned}</p>"
              + f"<p>Shear rates reached (5th-95th percentile of the moving particles): {reached}. "
-             f"Runtime {params['runtime_s'] / 60:.1f} min.</p>"),
+             f"Elastic constants: mu {params['elastic_constants_Pa']['mu']:.3g} Pa "
+             f"({'fitted' if PARAMETER_KEYS['mu'] in params else 'held'}), lam "
+             f"{params['elastic_constants_Pa']['lam']:.3g} Pa (held). Runtime {params['runtime_s'] / 60:.1f} min.</p>"),
             ("Setups", table_tag(["setup", "first frame after release (s)", "loss (px)", "mean IoU",
                                   "mean IoU outside the container"],
                                  [[name, f"{s['first_frame_after_release_s']:.4f}", f"{s['loss_px']:.3g}",

@@ -27,6 +27,7 @@ def test_a_setup_is_imported_and_fitted(workflow):
     page = (workflow.root / "results/virheometry/Carbonara/report.html").read_text()
     assert page.index("Recovered law") < page.index("<h2>Flow curve") < page.index("<h2>Flow index") \
         < page.index("<h2>Setups")
+    assert "Elastic constants: mu 300 Pa (held), lam 1e+04 Pa (held)" in page
     assert (workflow.root / "results/virheometry/Carbonara/flow_curve.png").stat().st_size > 10_000
     setup = json.loads((workflow.root / "results/virheometry/setups/ref_Carbonara_2.0_2.5_2/setup.json").read_text())
     assert setup["units"].startswith("SI") and setup["height"] == 0.02 and setup["frames"] == 8
