@@ -72,8 +72,8 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
     evaluate_many = partial(evaluations.evaluate_many, joint)  # points, phase -> losses, stored
     searched_flow_indices = law.n is None and bool(settings["flow_index_searches"])
     if searched_flow_indices:
-        # the shear modulus, where fitted, starts at the simulation's (within its box)
-        rest = np.clip(np.log([simulation["mu"]]), low[3:], high[3:]) if law.fitted_modulus else []
+        # the shear modulus, where fitted (the last coordinate), starts at the simulation's, within its box
+        rest = np.clip(np.log([simulation["mu"]]), low[-1:], high[-1:]) if law.fitted_modulus else []
         log_stress = stress_level(evaluate_many, settings["stress_rate"], (low, high), settings["stress_evaluations"],
                                   rest=rest)
         found = flow_index_profile(evaluate_many, log_stress, settings["flow_index_searches"],
@@ -130,7 +130,7 @@ else:
     log.info("%d evaluated materials within the tolerance span %s", spread.count, ranges)
 band = shear_rate_band(list(details.values()))
 params = {PARAMETER_KEYS[n]: {"value": i.value, "interval": [i.low, i.high], "determined": i.determined,
-                           "interval_open": list(i.open)} for n, i in intervals.items()}
+                              "interval_open": list(i.open)} for n, i in intervals.items()}
 if law.n is not None:
     params[RESULT_KEYS["n"]] = {"value": law.n, "interval": [law.n, law.n], "determined": True, "fixed": True}
 for n, i in intervals.items():

@@ -58,6 +58,23 @@ def test_a_setup_is_imported_and_fitted(workflow):
     assert not list((workflow.root / "results/virheometry/Carbonara/fit_setup2").glob("*.evaluations.json"))
 
 
+def test_a_fit_searches_the_shear_modulus_beside_the_flow_index_when_given_a_box(workflow):
+    run = workflow.run("results/virheometry/Carbonara/fit_setup2/params.json", "--config",
+                       "virheometry={simulation: {cells_per_height: 4, cells_across: 4, max_offset: 0.05}, "
+                       "fit: {rounds: 1, flow_index_searches: [0.7, 1.0], flow_index_evaluations: 5, "
+                       "stress_evaluations: 2, mu: [30.0, 3000.0]}}")
+    assert run.returncode == 0, run.stderr[-3000:]
+    fit = json.loads((workflow.root / "results/virheometry/Carbonara/fit_setup2/params.json").read_text())
+    mu = fit["mu_Pa"]
+    assert 30.0 <= mu["interval"][0] <= mu["value"] <= mu["interval"][1] <= 3000.0
+    assert fit["elastic_constants_Pa"]["mu"] == mu["value"] and fit["n"]["interval"][0] < fit["n"]["interval"][1]
+    with open(workflow.root / "results/virheometry/Carbonara/fit_setup2/history.csv") as f:
+        rows = list(csv.DictReader(f))
+    # the stress search holds the modulus at the simulation's 300 Pa; the flow-index searches move it
+    assert [float(r["mu"]) for r in rows if r["phase"] == "stress"] == pytest.approx([300.0, 300.0])
+    assert len({r["mu"] for r in rows if r["phase"] == "n 1"}) > 1
+
+
 def test_the_recordings_frame_rate_is_a_setting(workflow):
     target = "results/virheometry/setups/ref_Carbonara_2.0_2.5_2/setup.json"
     run = workflow.run(target, "--config", "virheometry={fps: 30.0}")
