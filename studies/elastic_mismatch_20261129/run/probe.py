@@ -49,4 +49,5 @@ for law_name in args.laws.split(","):
                      "setups_loss_px": {name: c.loss for name, c in found.items()}})
         print(rows[-1], flush=True)
 write_json_atomic(args.out, {"case": args.case, "effects": truth["effects"], "base_fit_loss_px": fit["loss_px"],
-                             "law": {k: list(v[0].values()) for k, v in laws.items()}, "rows": rows})
+                             "law": {k: {p: float(v[0][p]) for p in ("tau_y", "K", "n")} for k, v in laws.items()},
+                             "rows": rows})
