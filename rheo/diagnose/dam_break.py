@@ -20,6 +20,7 @@ import numpy as np
 from rheo.diagnose.candidates import CANDIDATES, OPEN_BOX, OPEN_DRAG, OPEN_STEP, Candidate, Law, open_rates
 from rheo.diagnose.residuals import Location, locate
 from rheo.diagnose.selection import Refit, choose, finalists_refitted, pays, profile_refit, refits, winner
+from rheo.experiments.rheometer import PARAMETER_KEYS
 from rheo.experiments.virheometry import Setup
 from rheo.fit.dam_break import Comparison, compare_law, shear_rate_band, targets
 from rheo.fit.parallel import Evaluator
@@ -108,8 +109,7 @@ class Diagnosis:
         """The law and the effect of a refit (a candidate's or the open drag's), in their units."""
         candidate = CANDIDATES.get(refit.name)
         law, _ = dataclasses.replace(self.law, candidate=candidate).unpack(refit.x)
-        out = {"tau_y_Pa": law["tau_y"], "K_Pa_s_n": law["K"], "n": law["n"]} | (
-            {"mu_Pa": law["mu"]} if "mu" in law else {})
+        out = {PARAMETER_KEYS[name]: value for name, value in law.items()}
         if candidate is not None:
             out[candidate.name] = candidate.value(float(refit.x[-1]))
         if refit.name == "open":
