@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import re
+import sys
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -202,7 +203,11 @@ def read_masks(folder: Path, width: int, height: int) -> list[np.ndarray]:
 
 def setup_folders(data: str | Path, material: str) -> list[Path]:
     """A material's setup folders (ref_<material>_<H>_<W>_<k>) in ``data``, by setup index k."""
-    folders = sorted(Path(data).glob(f"ref_{material}_*_*_*"), key=lambda p: p.name.rsplit("_", 1)[1])
+    def index(folder: Path) -> tuple[int, str]:  # a misnamed folder last, for read_setup to refuse
+        match = FOLDER_NAME.match(folder.name)
+        return (int(match["k"]), "") if match else (sys.maxsize, folder.name)
+
+    folders = sorted(Path(data).glob(f"ref_{material}_*_*_*"), key=index)
     if not folders:
         raise ValueError(f"{data}: no setup folders ref_{material}_<H>_<W>_<k>")
     return folders

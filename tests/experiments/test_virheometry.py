@@ -10,7 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
-from rheo.experiments.virheometry import Setup, SetupError, cuboid_overlap, opengl_camera, read_setup
+from rheo.experiments.virheometry import Setup, SetupError, cuboid_overlap, opengl_camera, read_setup, setup_folders
 from rheo.report.fit import interval_text
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "virheometry"
@@ -96,6 +96,13 @@ def test_a_broken_folder_gives_one_clear_error_naming_the_file(setup_copy, break
 def test_a_folder_not_named_like_a_setup_is_refused(tmp_path):
     with pytest.raises(SetupError, match="not a setup folder"):
         read_setup(tmp_path, scale=0.5)
+
+
+def test_setup_folders_come_in_the_order_of_their_index(tmp_path):
+    for name in ("ref_Paste_2_5_10", "ref_Paste_7_5_2", "ref_Paste_2_5_1", "ref_Paste_x_y_z", "ref_Pastel_2_5_3"):
+        (tmp_path / name).mkdir()
+    assert [p.name for p in setup_folders(tmp_path, "Paste")] == [
+        "ref_Paste_2_5_1", "ref_Paste_7_5_2", "ref_Paste_2_5_10", "ref_Paste_x_y_z"]
 
 
 def test_an_open_end_of_an_interval_is_marked():
