@@ -24,7 +24,7 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     (cases / "sliding.yaml").write_text("name: sliding\neffects: [{effect: floor_friction, magnitude: 0.3}]\n"
                                         "release_s: 0.025\n")
     (workflow.root / "quick.yaml").write_text(quick_config(
-        "samples: 2", "candidates: [floor_friction, gravity_tilt], open_evaluations: 8, held_out_every: 3, "
+        "samples: 2, mu: null", "candidates: [floor_friction, gravity_tilt], open_evaluations: 8, held_out_every: 3, "
         "forecast_share: 0.25"))
     run = workflow.run("results/concealed/summary.html", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
@@ -80,18 +80,18 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     assert scores["cases"] == 2 and scores["with_effect"] == 1 and scores["null"] == 1
     assert scores["top1"] == (diagnosis["chosen"] == "floor_friction")
     assert [c["case"] for c in scores["by_case"]] == ["plain", "sliding"] and scores["code_version"]
-    # the modulus the fit held (the config's) beside the lab's
+    # the modulus the fit held (the config's, as asked by mu: null) beside the lab's
     assert [c["shear_modulus_Pa"] for c in scores["by_case"]] == [[300.0, truth["mu_Pa"]]] * 2
     assert scores["suite"] == {"seed": 5, "count": 2}  # as the folder's suite.json says
     assert scores["open_drag_fitted"] == sum(d["open"] is not None for d in (plain, diagnosis))
     assert not list(result.glob("*/*/*.evaluations.json"))
 
 
-def test_a_case_of_another_shear_modulus_is_fitted_and_diagnosed_with_the_modulus_free(workflow):
+def test_a_case_of_another_shear_modulus_is_fitted_and_diagnosed_with_the_modulus_free_by_default(workflow):
     cases = workflow.root / "cases"
     cases.mkdir()
     (cases / "soft.yaml").write_text("name: soft\neffects: []\nelastic: {mu: 120.0, lam: 10000.0}\n")
-    (workflow.root / "quick.yaml").write_text(quick_config("samples: 3, mu: [30.0, 3000.0]",
+    (workflow.root / "quick.yaml").write_text(quick_config("samples: 3",
                                                            "candidates: [air_drag], open_evaluations: 0"))
     run = workflow.run("results/concealed/soft/diagnosis/diagnosis.json", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
