@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 
 from rheo.experiments.virheometry import cuboid_overlap, read_setup
-from rheo.fit.dam_break import OFFSET_STEP
+from rheo.fit.dam_break import frame_steps
 from rheo.io import write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import camera_check_figure
@@ -14,10 +14,7 @@ from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = start_stage(smk)
-steps = 1.0 / (smk.params.fps * OFFSET_STEP)  # offset steps between frames
-if not np.isclose(steps, round(steps)):
-    raise ValueError(f"{smk.params.folder}: virheometry.fps {smk.params.fps} puts its frames {steps:.3g} steps of "
-                     f"{OFFSET_STEP:.4g} s apart, not a whole number")
+frame_steps(smk.params.fps, f"{smk.params.folder}: virheometry.fps")  # refused before anything is read
 setup = dataclasses.replace(read_setup(smk.params.folder, smk.params.scale), fps=smk.params.fps)
 overlap = cuboid_overlap(setup)
 log.info("%s: %s, H %.3g m, W %.3g m, depth %.3g m, density %.0f kg/m^3, %d frames at %g fps; initial cuboid on "

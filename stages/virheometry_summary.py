@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rheo.experiments.rheometer import RESULT_KEYS, read_flow_curve
+from rheo.experiments.rheometer import RESULT_KEYS, fitted_law, read_flow_curve
 from rheo.io import read_json, write_text_atomic
 from rheo.report.fit import interval_text
 from rheo.report.html import figure_tag, link_tag, page, table_tag
@@ -42,7 +42,7 @@ for material, path, report, diagnosis in zip(smk.params.materials, smk.input.par
         cells.append(f"{p['value']:.3g} {interval_text(p)}" + ("" if p["determined"] else " *"))
     cells.append(", ".join(f"{np.mean(s['silhouette_iou']):.3f}" for s in fit["setups"].values()))
     band = fit["shear_rate_band_per_s"]
-    law = tuple(fit[k]["value"] for k in KEYS)
+    law = fitted_law(fit)
     curves = rheometer[material] = [read_flow_curve(p) for p in smk.params.rheometer[material]]
     errors = rheometer_comparison({"fit": law}, curves, band)[1] if curves and band is not None else {}
     for name, error in errors.items():

@@ -37,6 +37,15 @@ STRESS_STEP = 0.1  # ... and in the log of the stress at the stress rate, which 
 STRESS_TOLERANCE = 0.05  # log units: the stress search's resolution
 
 
+def frame_steps(fps: float, where: str) -> int:
+    """The offset steps between two frames recorded at ``fps``; an error naming ``where`` if not a whole number."""
+    steps = 1.0 / (fps * OFFSET_STEP)
+    if not np.isclose(steps, round(steps)):
+        raise ValueError(f"{where}: {fps:g} fps puts its frames {steps:.3g} steps of {OFFSET_STEP:.4g} s apart, "
+                         "not a whole number")
+    return round(steps)
+
+
 def skin(camera, points: np.ndarray, spacing: float) -> np.ndarray:
     """The particles' silhouette with gaps up to about a particle spacing closed: a thin spreading layer leaves its
     particles farther apart than the discs that draw them."""
@@ -110,9 +119,7 @@ class DamBreakTarget:
         self.container = container_silhouette(self.setup) | (rim & np.logical_and.reduce(self.masks))
         self.first_offset = round(min_offset / OFFSET_STEP)
         self.offsets = round(max_offset / OFFSET_STEP)
-        self.frame_steps = round(1.0 / (self.setup.fps * OFFSET_STEP))
-        if not np.isclose(self.frame_steps * OFFSET_STEP * self.setup.fps, 1.0):
-            raise ValueError(f"{self.setup.folder}: {self.setup.fps} fps is not a whole number of offset steps")
+        self.frame_steps = frame_steps(self.setup.fps, self.setup.folder)
         self.mu, self.lam = elastic
 
     def material(self, tau_y: float, K: float, n: float, mu: float | None = None) -> HerschelBulkley:

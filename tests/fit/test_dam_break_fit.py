@@ -12,6 +12,7 @@ from rheo.fit.dam_break import (
     DamBreakTarget,
     compare_law,
     flow_index_profile,
+    frame_steps,
     from_stress_split,
     shear_rates,
     skin,
@@ -39,6 +40,13 @@ def test_boundary_distance_of_a_shifted_square():
     assert boundary_distance(mask, mask, distance_to(mask)) == 0.0
     # 3 of 20 columns lie 1, 2, 3 px off on each side: mean (1+2+3)/20 each way
     assert boundary_distance(shifted, mask, distance_to(mask)) == pytest.approx(6 / 20, rel=1e-6)
+
+
+def test_frames_lie_a_whole_number_of_offset_steps_apart_or_are_refused_naming_the_recording():
+    assert frame_steps(24.0, "a") * OFFSET_STEP == pytest.approx(1 / 24)
+    assert frame_steps(30.0, "a") * OFFSET_STEP == pytest.approx(1 / 30)
+    with pytest.raises(ValueError, match="ref_X_1: 25 fps puts its frames 9.6 steps"):
+        frame_steps(25.0, "ref_X_1")
 
 
 def test_the_first_frames_offset_is_found_on_silhouettes_of_a_known_rollout(channel):
