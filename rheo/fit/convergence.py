@@ -34,7 +34,7 @@ import math
 import time
 import tokenize
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cache, partial
 from pathlib import Path
 
@@ -45,7 +45,7 @@ from tqdm.auto import tqdm
 from rheo.config import ROOT, WORKFLOW_CONFIG, workflow_settings
 from rheo.experiments.dam_break import dam_break_scene
 from rheo.experiments.rheometer import fit_herschel_bulkley, pooled, read_flow_curve
-from rheo.experiments.virheometry import Setup, read_setup, setup_folders
+from rheo.experiments.virheometry import FPS, Setup, read_setup, setup_folders
 from rheo.fit.dam_break import OFFSET_STEP, DamBreakTarget, target
 from rheo.fit.parallel import Evaluator
 from rheo.io import write_json_atomic
@@ -119,8 +119,8 @@ def measure(compared: DamBreakTarget, law: Law) -> dict:
 
 @dataclass(frozen=True)
 class Case:
-    """One simulation of the study: a setup (its folder), a law, a grid (cells over the height, across) and a
-    step."""
+    """One simulation of the study: a setup (its folder, read at ``fps``), a law, a grid (cells over the height,
+    across) and a step."""
 
     folder: str
     label: str
@@ -129,6 +129,7 @@ class Case:
     cells_across: int
     cfl: float
     grids: tuple[str, ...]  # every grid of the study (CxA) that gives this setup this cell
+    fps: float = FPS
 
     def simulation(self, base: dict) -> dict:
         return {**base, "cells_per_height": self.cells_per_height, "cells_across": self.cells_across,
@@ -136,22 +137,23 @@ class Case:
 
 
 class Targets(dict):
-    """Targets by (setup folder, simulation settings as JSON), built when first asked for (in a worker process)."""
+    """Targets by (setup folder, frame rate, simulation settings) as JSON, built when first asked for (in a worker
+    process)."""
 
     def __init__(self, scale: float) -> None:
         super().__init__()
         self.scale = scale
 
     def __missing__(self, name: str) -> Callable[[np.ndarray], dict]:
-        folder, simulation = json.loads(name)
-        compared = target(_setup(folder, self.scale), simulation)
+        folder, fps, simulation = json.loads(name)
+        compared = target(_setup(folder, self.scale, fps), simulation)
         self[name] = partial(measure, compared)
         return self[name]
 
 
 @cache
-def _setup(folder: str, scale: float) -> Setup:
-    return read_setup(folder, scale)
+def _setup(folder: str, scale: float, fps: float) -> Setup:
+    return replace(read_setup(folder, scale), fps=fps)
 
 
 def _targets(scale: float) -> Targets:
@@ -181,10 +183,13 @@ class EvaluationStore:
 
     def key(self, case: Case, simulation: dict) -> str:
         """The case and every simulation setting it does not set itself; beyond the first five, only those given
-        (wall slip, say), so that the keys of stored studies stay as they were."""
+        (wall slip, say), and the frame rate where not the recordings' own, so that the keys of stored studies stay
+        as they were."""
         settings = {k: simulation.get(k) for k in KEYED_SETTINGS}
         settings |= {k: v for k, v in simulation.items()
                      if k not in (*KEYED_SETTINGS, "cells_per_height", "cells_across", "cfl") and v is not None}
+        if case.fps != FPS:
+            settings["fps"] = case.fps
         return json.dumps([self.fingerprint, case.folder, [float(v) for v in case.law], case.cells_per_height,
                            case.cells_across, case.cfl, settings])
 
@@ -222,7 +227,7 @@ def run(cases: Sequence[Case], simulation: dict, scale: float, store: Evaluation
             tqdm(total=len(todo), desc="convergence study", unit="simulation") as bar:
         for first in range(0, len(todo), workers):
             batch = todo[first:first + workers]
-            tasks = [(json.dumps([c.folder, c.simulation(simulation)]), np.array(c.law)) for c in batch]
+            tasks = [(json.dumps([c.folder, c.fps, c.simulation(simulation)]), np.array(c.law)) for c in batch]
             for case, record in zip(batch, evaluator.map(tasks), strict=True):
                 store.put(case, simulation, record)
                 logger.info("%s %s %dx%d cfl %g: %.4f px, %.1f s", Path(case.folder).name, case.label,
@@ -347,7 +352,7 @@ def study_cases(setups: Sequence[Setup], laws: dict[str, Law], grids: Sequence[i
             by_cell.setdefault(round(dam_break_scene(setup, cells, across).dx, 12), []).append((cells, across))
         for same, (label, law), cfl in itertools.product(by_cell.values(), laws.items(), cfls):
             cases.append(Case(str(setup.folder), label, tuple(float(v) for v in law), *same[0], cfl,
-                              tuple(f"{c}x{a}" for c, a in same)))
+                              tuple(f"{c}x{a}" for c, a in same), setup.fps))
     return cases
 
 
@@ -418,7 +423,7 @@ def main(argv: list[str] | None = None) -> None:
             parser.error(f"{args.material} has no setup {', '.join(sorted(unknown))} (its setups: "
                          f"{', '.join(f.name for f in folders)})")
         folders = [f for f in folders if f.name in args.setups]
-    setups = [read_setup(f, config["scale"]) for f in folders]
+    setups = [replace(read_setup(f, config["scale"]), fps=config["fps"]) for f in folders]
     cases = study_cases(setups, laws, args.grids, args.cfl or [simulation["cfl"]],
                         (simulation["cells_per_height"], simulation["cells_across"]))
     store = EvaluationStore(args.store or args.out.with_suffix(".evaluations.json"), engine_fingerprint())

@@ -2,6 +2,7 @@
 on constructed rows, and a small study of a real recording that resumes from its stored simulations."""
 
 import dataclasses
+import json
 from argparse import ArgumentTypeError
 from pathlib import Path
 
@@ -26,6 +27,7 @@ from rheo.fit.convergence import (
     study_cases,
     summarize,
 )
+from rheo.fit.dam_break import OFFSET_STEP
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data"
 CURVES = sorted(str(p) for p in (SHARED / "rheometer").glob("Lotion_*.csv"))
@@ -123,6 +125,11 @@ def test_every_simulation_setting_given_is_part_of_a_stored_records_key(tmp_path
     assert store.key(case, {**SIMULATION, "wall_slip": 1e4}) != sticky
     assert store.key(case, {**SIMULATION, "lam": 1e5}) != sticky
     assert store.key(case, {**SIMULATION, "cfl": 0.2}) == sticky  # the case's own step, not the config's
+    # a recording read at another frame rate is another study, its frames compared that far apart
+    thirty = dataclasses.replace(case, fps=30.0)
+    assert store.key(thirty, SIMULATION) != sticky
+    compared = convergence.Targets(0.5)[json.dumps([thirty.folder, thirty.fps, thirty.simulation(SIMULATION)])]
+    assert compared.args[0].frame_steps * OFFSET_STEP == pytest.approx(1 / 30)
 
 
 def test_studies_sharing_a_store_keep_each_others_simulations(tmp_path):

@@ -45,7 +45,7 @@ def test_boundary_distance_of_a_shifted_square():
 def test_frames_lie_a_whole_number_of_offset_steps_apart_or_are_refused_naming_the_recording():
     assert frame_steps(24.0, "a") * OFFSET_STEP == pytest.approx(1 / 24)
     assert frame_steps(30.0, "a") * OFFSET_STEP == pytest.approx(1 / 30)
-    with pytest.raises(ValueError, match="ref_X_1: 25 fps puts its frames 9.6 steps"):
+    with pytest.raises(ValueError, match=r"ref_X_1: 25 fps puts its frames 9\.6 steps"):
         frame_steps(25.0, "ref_X_1")
 
 

@@ -2,10 +2,7 @@
 
 
 def convergence_folders(material: str) -> list[Path]:
-    """The material's setup folders, which the study reads itself, at the recordings' stated frame rate."""
-    if config["virheometry"]["fps"] != FPS:
-        raise ConfigError(f"virheometry.fps {config['virheometry']['fps']:g}: the convergence study reads the "
-                          f"recordings at {FPS:g} frames per second only")
+    """The material's setup folders, which the study reads itself (at virheometry.fps)."""
     return setup_folders(config["virheometry"]["data"], material)
 
 
@@ -41,5 +38,6 @@ rule virheometry_convergence:
         study={k: v for k, v in config["virheometry"]["convergence"].items() if k != "laws"},
         simulation=config["virheometry"]["simulation"],
         scale=config["virheometry"]["scale"],
+        fps=config["virheometry"]["fps"],
     script:
         "../../stages/virheometry_convergence.py"

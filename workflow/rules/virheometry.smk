@@ -1,6 +1,6 @@
 # ViRheometry's real dam-break recordings: each setup folder imported into SI units, its camera checked.
 
-from rheo.experiments.virheometry import FPS, setup_folders
+from rheo.experiments.virheometry import setup_folders
 
 
 def virheometry_folder(setup: str) -> Path:
