@@ -213,14 +213,16 @@ def test_a_broken_virheometry_folder_is_named_at_import(workflow, tmp_path, brea
 
 
 def test_a_second_run_on_the_same_folder_is_refused_by_the_lock(workflow):
-    # the first run goes on to the fit (tens of seconds), so it still holds its lock when the second one starts
-    first = workflow.start("results/tiny/fit/params.json")
+    # the first run goes on to the fit (tens of seconds), so it still holds its lock when the second one, asking for
+    # the same fit, starts (a second run with nothing left to do would not look at the lock)
+    target = "results/tiny/fit/params.json"
+    first = workflow.start(target)
     try:
         locks = workflow.root / ".snakemake/locks"
         deadline = time.monotonic() + 60
         while not (locks.is_dir() and any(locks.iterdir())) and time.monotonic() < deadline:
             time.sleep(0.2)
-        second = workflow.run("results/tiny/recordings")
+        second = workflow.run(target)
         assert second.returncode != 0 and "cannot be locked" in _output(second)
     finally:
         workflow.kill(first)
