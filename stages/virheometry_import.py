@@ -14,7 +14,7 @@ from rheo.stage import start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = start_stage(smk)
-frame_steps(smk.params.fps, f"{smk.params.folder}: virheometry.fps")  # refused before anything is read
+frame_steps(smk.params.fps, f"{smk.params.folder} (virheometry.fps)")  # refused before anything is read
 setup = dataclasses.replace(read_setup(smk.params.folder, smk.params.scale), fps=smk.params.fps)
 overlap = cuboid_overlap(setup)
 log.info("%s: %s, H %.3g m, W %.3g m, depth %.3g m, density %.0f kg/m^3, %d frames at %g fps; initial cuboid on "

@@ -84,7 +84,7 @@ def test_the_recordings_frame_rate_is_a_setting(workflow):
     other = target.replace("Carbonara_2.0_2.5_2", "Carbonara_3.7_6.4_1")
     run = workflow.run(other, "--config", "virheometry={fps: 25.0}")
     assert run.returncode != 0
-    assert "ref_Carbonara_3.7_6.4_1: virheometry.fps: 25 fps puts its frames 9.6 steps" in run.stdout + run.stderr
+    assert "ref_Carbonara_3.7_6.4_1 (virheometry.fps): 25 fps puts its frames 9.6 steps" in run.stdout + run.stderr
     # the convergence study reads the recordings at the stated rate too
     run = workflow.run("results/virheometry/Lotion/convergence.json", "-n", "--config", "virheometry={fps: 30.0}")
     assert run.returncode == 0, run.stderr[-3000:]
