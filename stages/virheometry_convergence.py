@@ -2,7 +2,6 @@
 the observed order and the extrapolated limit of the loss and the flow, the time step's effect and which law wins at
 each resolution (JSON and a page). Every simulation is stored, so an interrupted study resumes."""
 
-from dataclasses import replace
 from pathlib import Path
 
 from rheo.experiments.virheometry import read_setup
@@ -26,7 +25,7 @@ laws = {label: tuple(law) for label, law in smk.params.laws.items()}
 if smk.input.rheometer:
     laws["rheometer"] = rheometer_law(list(smk.input.rheometer), tuple(study["rheometer_band"]))
 log.info("laws: %s", laws)
-setups = [replace(read_setup(f, smk.params.scale), fps=smk.params.fps) for f in smk.params.folders]
+setups = [read_setup(f, smk.params.scale, smk.params.fps) for f in smk.params.folders]
 cases = study_cases(setups, laws, study["grids"], study["cfls"],
                     (simulation["cells_per_height"], simulation["cells_across"]))
 output = Path(smk.output.summary)

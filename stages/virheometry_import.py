@@ -1,8 +1,6 @@
 """virheometry_import: one ViRheometry setup folder in SI units (geometry, walls, density, camera, silhouettes), with
 its camera checked by projecting the material's initial cuboid onto the first silhouette."""
 
-import dataclasses
-
 import numpy as np
 
 from rheo.experiments.virheometry import cuboid_overlap, read_setup
@@ -15,7 +13,7 @@ from rheo.stage import start_stage
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = start_stage(smk)
 frame_steps(smk.params.fps, f"{smk.params.folder} (virheometry.fps)")  # refused before anything is read
-setup = dataclasses.replace(read_setup(smk.params.folder, smk.params.scale), fps=smk.params.fps)
+setup = read_setup(smk.params.folder, smk.params.scale, smk.params.fps)
 overlap = cuboid_overlap(setup)
 log.info("%s: %s, H %.3g m, W %.3g m, depth %.3g m, density %.0f kg/m^3, %d frames at %g fps; initial cuboid on "
          "frame 1: IoU %.3f, %.1f %% of the cuboid on the silhouette", setup.folder, setup.material, setup.height,

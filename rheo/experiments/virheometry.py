@@ -213,8 +213,9 @@ def setup_folders(data: str | Path, material: str) -> list[Path]:
     return folders
 
 
-def read_setup(folder: str | Path, scale: float = 1.0) -> Setup:
-    """A setup folder; the camera and masks at ``scale`` times the window size (the PNGs are at twice it)."""
+def read_setup(folder: str | Path, scale: float = 1.0, fps: float = FPS) -> Setup:
+    """A setup folder, its frames ``fps`` apart; the camera and masks at ``scale`` times the window size (the PNGs
+    are at twice it)."""
     folder = Path(folder)
     match = FOLDER_NAME.match(folder.name)
     if not folder.is_dir() or match is None:
@@ -252,7 +253,7 @@ def read_setup(folder: str | Path, scale: float = 1.0) -> Setup:
     return Setup(folder=folder, material=match["material"], index=int(match["k"]), height=height * CM,
                  width=width * CM, depth=_channel_depth(settings_path, walls, width * CM), density=rho * G_PER_CM3,
                  walls=walls, camera=opengl_camera(eye, quaternion, fov, *size),
-                 masks=read_masks(folder, *size), start_point=start)
+                 masks=read_masks(folder, *size), start_point=start, fps=fps)
 
 
 def container_silhouette(setup: Setup, rim: int = 0) -> np.ndarray:

@@ -34,7 +34,7 @@ import math
 import time
 import tokenize
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cache, partial
 from pathlib import Path
 
@@ -129,7 +129,7 @@ class Case:
     cells_across: int
     cfl: float
     grids: tuple[str, ...]  # every grid of the study (CxA) that gives this setup this cell
-    fps: float = FPS
+    fps: float
 
     def simulation(self, base: dict) -> dict:
         return {**base, "cells_per_height": self.cells_per_height, "cells_across": self.cells_across,
@@ -153,7 +153,7 @@ class Targets(dict):
 
 @cache
 def _setup(folder: str, scale: float, fps: float) -> Setup:
-    return replace(read_setup(folder, scale), fps=fps)
+    return read_setup(folder, scale, fps)
 
 
 def _targets(scale: float) -> Targets:
@@ -423,7 +423,7 @@ def main(argv: list[str] | None = None) -> None:
             parser.error(f"{args.material} has no setup {', '.join(sorted(unknown))} (its setups: "
                          f"{', '.join(f.name for f in folders)})")
         folders = [f for f in folders if f.name in args.setups]
-    setups = [replace(read_setup(f, config["scale"]), fps=config["fps"]) for f in folders]
+    setups = [read_setup(f, config["scale"], config["fps"]) for f in folders]
     cases = study_cases(setups, laws, args.grids, args.cfl or [simulation["cfl"]],
                         (simulation["cells_per_height"], simulation["cells_across"]))
     store = EvaluationStore(args.store or args.out.with_suffix(".evaluations.json"), engine_fingerprint())
