@@ -45,6 +45,7 @@ result = diagnose(setups, smk.params.simulation, smk.params.fit_settings, settin
 bar.close()
 record = result.record()
 record["runtime_s"] = evaluations.earlier_seconds + time.time() - started
+record["runs"] = evaluations.runs
 log.info("verdict: %s", record["verdict"])
 for name, words in ((n, m["words"]) for n, m in record["mismatch"].items()):
     log.info("%s: %s", name, words)

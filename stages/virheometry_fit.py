@@ -155,7 +155,7 @@ write_json_atomic(output, {
     "tolerance": settings["tolerance"],
     "elastic_constants_Pa": {"mu": intervals["mu"].value if "mu" in intervals else simulation["mu"],
                              "lam": simulation["lam"]},
-    "runtime_s": evaluations.earlier_seconds + time.time() - started})
+    "runtime_s": evaluations.earlier_seconds + time.time() - started, "runs": evaluations.runs})
 
 
 def write_history(path: Path) -> None:

@@ -26,6 +26,7 @@ import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -79,13 +80,19 @@ class EvaluationLog:
         self.path, self.key, self.one_objective = Path(path), key, one_objective
         self.records: list[dict] = []
         self.earlier_seconds = 0.0  # the time the interrupted runs spent up to their last stored evaluation
+        self.runs: list[dict] = []  # each run's start (UTC), the evaluations it added and its seconds; this one last
         self._started = time.monotonic()
         if self.path.is_file():
             stored = json.loads(self.path.read_text())
             if stored.get("key") == key:
                 self.records = stored["records"]
                 self.earlier_seconds = stored.get("seconds", 0.0)
-                logger.info("replaying %d stored evaluations from %s", len(self.records), self.path)
+                self.runs = stored.get("runs", [])
+                logger.info("replaying %d stored evaluations from %s%s", len(self.records), self.path,
+                            "".join(f"; run of {r['started']}: {r['evaluations']} in {r['seconds'] / 60:.0f} min"
+                                    for r in self.runs))
+        self.runs.append({"started": datetime.now(UTC).isoformat(timespec="seconds"), "evaluations": 0,
+                          "seconds": 0.0})
         self._index: dict[str, dict] = {}
         for record in self.records:
             self._index.setdefault(self._point_key(record["phase"], record["x"]), record)
@@ -115,6 +122,7 @@ class EvaluationLog:
                               "loss": float(details["loss"])}
                     self.records.append(record)
                     self._index[self._point_key(phase, x)] = record
+                self.runs[-1]["evaluations"] += len(todo)
                 self._write()
         with self._lock:
             found = [self._index[self._point_key(phase, x)] for x in points]
@@ -142,9 +150,10 @@ class EvaluationLog:
             return min((r for r in self.records if r["phase"] == phase), key=lambda r: r["loss"])
 
     def _write(self) -> None:
-        seconds = self.earlier_seconds + time.monotonic() - self._started
+        self.runs[-1]["seconds"] = round(time.monotonic() - self._started, 1)
+        seconds = self.earlier_seconds + self.runs[-1]["seconds"]
         write_atomic(self.path, lambda p: p.write_text(json.dumps({"key": self.key, "records": self.records,
-                                                                  "seconds": seconds})))
+                                                                  "seconds": seconds, "runs": self.runs})))
 
 
 def survey_points(centre: np.ndarray, half_width: float | np.ndarray, samples: int, seed: int = 0) -> np.ndarray:

@@ -2,6 +2,8 @@
 brute-force search on the sphere, its tolerance region against the analytic ellipsoid and a dense sampling, and the
 refinement's estimate on a rough, flat valley like the silhouette loss's."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -157,6 +159,11 @@ def test_an_interrupted_refinement_replays_its_stored_evaluations_and_ends_where
     calls.clear()
     with pytest.raises(KeyboardInterrupt):
         run(EvaluationLog(tmp_path / "cut.json", "key"), stop_after=20)
-    resumed = run(EvaluationLog(tmp_path / "cut.json", "key"))
+    interrupted = len(calls)
+    log = EvaluationLog(tmp_path / "cut.json", "key")
+    resumed = run(log)
     assert np.array_equal(resumed.x, whole.x) and resumed.rounds == whole.rounds
     assert len(calls) == evaluations  # nothing evaluated twice
+    # each run's share of the evaluations is kept with them
+    assert [r["evaluations"] for r in log.runs] == [interrupted, evaluations - interrupted]
+    assert json.loads(log.path.read_text())["runs"] == log.runs
