@@ -9,31 +9,25 @@ writes ``--out`` (JSON).
 
 import argparse
 import dataclasses
-import json
 from pathlib import Path
 
 import numpy as np
+from case import case_files, fit_simulation
 
-from rheo.config import load_schema, load_yaml, validated
-from rheo.fit.dam_break import setup_files, targets
+from rheo.fit.dam_break import targets
 from rheo.io import write_json_atomic
 
-CASE = Path(__file__).resolve().parents[2] / "suite_20261126" / "results" / "concealed" / "c54c71111"
+CASE = "c54c71111"
 FRICTIONS = (0.5, 0.3, 0.175)
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 parser.add_argument("--out", required=True, type=Path)
 args = parser.parse_args()
 
-config = validated(load_yaml("config/config.yaml"), load_schema("workflow/schemas/config.schema.yaml"), "config")
-simulation = {**config["virheometry"]["simulation"], "held_out_every": config["diagnose"]["held_out_every"],
-              "forecast_share": config["diagnose"]["forecast_share"]}
-truth = json.loads((CASE / "truth.json").read_text())
-fit = json.loads((CASE / "fit/params.json").read_text())
+simulation = fit_simulation()
+truth, fit, setups = case_files(CASE)
 laws = {"truth": (truth["tau_y_Pa"], truth["K_Pa_s_n"]), "fit": (fit["tau_y_Pa"]["value"], fit["K_Pa_s_n"]["value"])}
-folders = sorted(p for p in (CASE / "recording").iterdir() if p.is_dir())
-built = targets(setup_files([str(f / "setup.json") for f in folders], [str(f / "masks.npz") for f in folders]),
-                simulation)
+built = targets(setups, simulation)
 rows = []
 for name, (tau_y, K) in laws.items():
     for friction in FRICTIONS:
@@ -42,5 +36,5 @@ for name, (tau_y, K) in laws.items():
         rows.append({"law": name, "tau_y_Pa": tau_y, "K_Pa_s_n": K, "floor_friction": friction,
                      "loss_px": float(np.mean([c.loss for c in found]))})
         print(rows[-1], flush=True)
-write_json_atomic(args.out, {"case": CASE.name, "elastic_constants_Pa": {"mu": simulation["mu"],
+write_json_atomic(args.out, {"case": CASE, "elastic_constants_Pa": {"mu": simulation["mu"],
                                                                         "lam": simulation["lam"]}, "rows": rows})

@@ -8,17 +8,14 @@ distance from the truth the elastic constants the fit holds account for. Run fro
 """
 
 import argparse
-import json
 from pathlib import Path
 
 import numpy as np
+from case import case_files, fit_simulation
 
-from rheo.config import load_schema, load_yaml, validated
 from rheo.experiments.concealed import concealed_truth
-from rheo.fit.dam_break import setup_files, targets
+from rheo.fit.dam_break import targets
 from rheo.io import write_json_atomic
-
-SUITE = Path(__file__).resolve().parents[2] / "suite_20261126" / "results" / "concealed"
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 parser.add_argument("--case", required=True, help="a case of the first suite, e.g. c55ea49b9")
@@ -26,18 +23,12 @@ parser.add_argument("--laws", default="truth,fit", help="which laws: truth (with
 parser.add_argument("--out", required=True, type=Path)
 args = parser.parse_args()
 
-root = SUITE / args.case
-config = validated(load_yaml("config/config.yaml"), load_schema("workflow/schemas/config.schema.yaml"), "config")
-simulation = {**config["virheometry"]["simulation"], "held_out_every": config["diagnose"]["held_out_every"],
-              "forecast_share": config["diagnose"]["forecast_share"]}
-truth = json.loads((root / "truth.json").read_text())
-fit = json.loads((root / "fit/params.json").read_text())
+simulation = fit_simulation()
+truth, fit, setups = case_files(args.case)
 filmed = concealed_truth({"effects": truth["effects"]}, {"tau_y": truth["tau_y_Pa"], "K": truth["K_Pa_s_n"]})
 laws = {"truth": (filmed.law, filmed.effects),
         "fit": ({"tau_y": fit["tau_y_Pa"]["value"], "K": fit["K_Pa_s_n"]["value"], "n": fit["n"]["value"]}, None)}
 elastic = {"lab": {"mu": truth["mu_Pa"], "lam": truth["lam_Pa"]}, "fit": fit["elastic_constants_Pa"]}
-folders = sorted(p for p in (root / "recording").iterdir() if p.is_dir())
-setups = setup_files([str(f / "setup.json") for f in folders], [str(f / "masks.npz") for f in folders])
 rows = []
 for law_name in args.laws.split(","):
     law, effects = laws[law_name]
