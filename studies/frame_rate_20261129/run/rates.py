@@ -12,7 +12,6 @@ is written to ``--out`` under the engine's fingerprint, so a stopped run goes on
 """
 
 import argparse
-import dataclasses
 import json
 import logging
 from pathlib import Path
@@ -38,7 +37,7 @@ def main() -> None:
     records = StudyRecords(args.out)
     for steps in args.intervals:
         for folder in setup_folders(config["data"], args.material):
-            setup = dataclasses.replace(read_setup(folder, config["scale"]), fps=1.0 / (steps * OFFSET_STEP))
+            setup = read_setup(folder, config["scale"], fps=1.0 / (steps * OFFSET_STEP))
             compared = target(setup, config["simulation"])
             for name, law in laws.items():
                 label = f"{folder.name} {name} {steps}"
