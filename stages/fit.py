@@ -137,8 +137,7 @@ if not warmup:
         "convention": exp["material"]["convention"], "parameters": params, "evidence": result.evidence,
         "tolerance": settings["tolerance"], "herschel_bulkley": {"tau_y": hb.tau_y, "K": hb.K, "n": hb.n,
                                                                  "mu": hb.mu, "lam": hb.lam, "density": hb.density},
-        "initial_velocity": v0.tolist(), "final_loss": result.loss, "loss_units": "px",
-        "runs": evaluations.runs})
+        "initial_velocity": v0.tolist(), "final_loss": result.loss, "loss_units": "px"})
     rows = warm["history"] + history_rows(evaluations.records)
 
     def write_history(path: Path) -> None:

@@ -43,7 +43,8 @@ def test_a_fit_killed_half_way_resumes_from_its_stored_evaluations(tmp_path, cor
 
     resumed = killed.run(TARGET, "--rerun-incomplete", "--cores", cores)
     assert resumed.returncode == 0, resumed.stderr[-3000:]
-    assert "replaying" in (killed.root / "logs/tiny/fit.log").read_text()
+    log = (killed.root / "logs/tiny/fit.log").read_text()
+    assert "replaying" in log and "; run of " in log  # the killed run, named in the new log
     assert (killed.root / "results/tiny/fit/warmup.json").stat().st_mtime_ns == warmup_time
     if cores == "2":
         assert (killed.root / TARGET).read_bytes() == (whole.root / TARGET).read_bytes()
