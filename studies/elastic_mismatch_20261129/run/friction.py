@@ -36,5 +36,5 @@ for name, (tau_y, K) in laws.items():
         rows.append({"law": name, "tau_y_Pa": tau_y, "K_Pa_s_n": K, "floor_friction": friction,
                      "loss_px": float(np.mean([c.loss for c in found]))})
         print(rows[-1], flush=True)
-write_json_atomic(args.out, {"case": CASE, "elastic_constants_Pa": {"mu": simulation["mu"],
-                                                                        "lam": simulation["lam"]}, "rows": rows})
+write_json_atomic(args.out, {"case": CASE, "elastic_constants_Pa": {"mu": simulation["mu"], "lam": simulation["lam"]},
+                             "rows": rows})
