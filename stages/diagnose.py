@@ -2,7 +2,6 @@
 effect tried in a short refit and ranked by the information criterion, the winner refitted, the gain measured on
 the frames held out of every fit; with rheometer curves, the flow-curve error of the base fit and of every refit."""
 
-import time
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +20,6 @@ from rheo.stage import inputs_key, start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = start_stage(smk)
-started = time.time()
 setups = setup_files(smk.input.setups, smk.input.masks)
 fit = read_json(smk.input.fit)
 fitted = {name: fit[key] for name, key in PARAMETER_KEYS.items() if key in fit}  # the law, and mu where fitted
@@ -44,8 +42,7 @@ result = diagnose(setups, smk.params.simulation, smk.params.fit_settings, settin
                   evaluations, smk.threads, progress)
 bar.close()
 record = result.record()
-record["runtime_s"] = evaluations.earlier_seconds + time.time() - started
-record["runs"] = evaluations.runs
+record.update(evaluations.times())
 log.info("verdict: %s", record["verdict"])
 for name, words in ((n, m["words"]) for n, m in record["mismatch"].items()):
     log.info("%s: %s", name, words)

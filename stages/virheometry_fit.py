@@ -11,7 +11,6 @@ Each evaluation simulates the setups side by side, the survey's and the designs'
 Every evaluation is stored, so an interrupted fit resumes."""
 
 import csv
-import time
 from functools import partial
 from pathlib import Path
 
@@ -38,7 +37,6 @@ from rheo.stage import inputs_key, start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
 log = start_stage(smk)
-started = time.time()
 settings, simulation = smk.params.settings, smk.params.simulation
 setups = setup_files(smk.input.setups, smk.input.masks)
 law = Law(n=settings.get("flow_index"), fitted_modulus=settings.get("mu") is not None)
@@ -155,7 +153,7 @@ write_json_atomic(output, {
     "tolerance": settings["tolerance"],
     "elastic_constants_Pa": {"mu": intervals["mu"].value if "mu" in intervals else simulation["mu"],
                              "lam": simulation["lam"]},
-    "runtime_s": evaluations.earlier_seconds + time.time() - started, "runs": evaluations.runs})
+    **evaluations.times()})
 
 
 def write_history(path: Path) -> None:

@@ -149,11 +149,17 @@ class EvaluationLog:
         with self._lock:
             return min((r for r in self.records if r["phase"] == phase), key=lambda r: r["loss"])
 
+    def times(self) -> dict:
+        """The seconds all runs spent (the interrupted ones up to their last stored evaluation) and each run's
+        start, evaluations added and seconds, this one up to now."""
+        self.runs[-1]["seconds"] = time.monotonic() - self._started
+        return {"runtime_s": self.earlier_seconds + self.runs[-1]["seconds"], "runs": self.runs}
+
     def _write(self) -> None:
-        self.runs[-1]["seconds"] = round(time.monotonic() - self._started, 1)
-        seconds = self.earlier_seconds + self.runs[-1]["seconds"]
+        times = self.times()
         write_atomic(self.path, lambda p: p.write_text(json.dumps({"key": self.key, "records": self.records,
-                                                                  "seconds": seconds, "runs": self.runs})))
+                                                                  "seconds": times["runtime_s"],
+                                                                  "runs": times["runs"]})))
 
 
 def survey_points(centre: np.ndarray, half_width: float | np.ndarray, samples: int, seed: int = 0) -> np.ndarray:
