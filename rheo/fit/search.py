@@ -86,11 +86,13 @@ class EvaluationLog:
             stored = json.loads(self.path.read_text())
             if stored.get("key") == key:
                 self.records = stored["records"]
-                self.earlier_seconds = stored.get("seconds", 0.0)
-                self.runs = stored.get("runs", [])
+                self.earlier_seconds = stored.get("runtime_s", stored.get("seconds", 0.0))  # older stores: "seconds"
+                # a store written before runs were kept: its evaluations as one entry of unrecorded start
+                self.runs = stored.get("runs") or [{"started": None, "evaluations": len(self.records),
+                                                    "seconds": self.earlier_seconds}]
                 logger.info("replaying %d stored evaluations from %s%s", len(self.records), self.path,
-                            "".join(f"; run of {r['started']}: {r['evaluations']} in {r['seconds'] / 60:.0f} min"
-                                    for r in self.runs))
+                            "".join(f"; run of {r['started'] or 'unrecorded start'}: {r['evaluations']} in "
+                                    f"{r['seconds'] / 60:.0f} min" for r in self.runs))
         self.runs.append({"started": datetime.now(UTC).isoformat(timespec="seconds"), "evaluations": 0,
                           "seconds": 0.0})
         self._index: dict[str, dict] = {}
@@ -156,10 +158,8 @@ class EvaluationLog:
         return {"runtime_s": self.earlier_seconds + self.runs[-1]["seconds"], "runs": self.runs}
 
     def _write(self) -> None:
-        times = self.times()
-        write_atomic(self.path, lambda p: p.write_text(json.dumps({"key": self.key, "records": self.records,
-                                                                  "seconds": times["runtime_s"],
-                                                                  "runs": times["runs"]})))
+        stored = {"key": self.key, "records": self.records, **self.times()}
+        write_atomic(self.path, lambda p: p.write_text(json.dumps(stored)))
 
 
 def survey_points(centre: np.ndarray, half_width: float | np.ndarray, samples: int, seed: int = 0) -> np.ndarray:

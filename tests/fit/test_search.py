@@ -227,6 +227,18 @@ def test_an_interrupted_search_replays_its_stored_evaluations(tmp_path):
     assert len(EvaluationLog(path, "other key").records) == 0  # other inputs: nothing replayed
 
 
+def test_a_store_written_before_runs_were_kept_resumes_with_its_time_and_evaluations(tmp_path):
+    path = tmp_path / "evaluations.json"
+    records = [{"phase": "full", "x": [0.0, 0.0], "loss": 2.0}, {"phase": "full", "x": [0.2, 0.0], "loss": 1.64}]
+    path.write_text(json.dumps({"key": "key", "records": records, "seconds": 120.0}))  # the older form
+    resumed = EvaluationLog(path, "key")
+    assert resumed.evaluate(lambda x: pytest.fail("a stored point was evaluated again"), np.zeros(2), "full") == 2.0
+    resumed.evaluate(lambda x: float(np.sum((x - 1.0) ** 2)), np.ones(2), "full")
+    stored = json.loads(path.read_text())
+    assert [(r["started"] is None, r["evaluations"]) for r in stored["runs"]] == [(True, 2), (False, 1)]
+    assert stored["runtime_s"] == pytest.approx(120.0 + stored["runs"][1]["seconds"])
+
+
 def test_the_simplex_stays_inside_its_box():
     seen = []
 
