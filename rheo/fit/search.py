@@ -87,9 +87,11 @@ class EvaluationLog:
             if stored.get("key") == key:
                 self.records = stored["records"]
                 self.earlier_seconds = stored.get("runtime_s", stored.get("seconds", 0.0))  # older stores: "seconds"
-                # a store written before runs were kept: its evaluations as one entry of unrecorded start
-                self.runs = stored.get("runs") or [{"started": None, "evaluations": len(self.records),
-                                                    "seconds": self.earlier_seconds}]
+                self.runs = stored.get("runs", [])
+                unlisted = len(self.records) - sum(r["evaluations"] for r in self.runs)
+                if unlisted > 0:  # stored before the store kept its runs: one entry of unrecorded start
+                    self.runs.insert(0, {"started": None, "evaluations": unlisted,
+                                         "seconds": self.earlier_seconds - sum(r["seconds"] for r in self.runs)})
                 logger.info("replaying %d stored evaluations from %s%s", len(self.records), self.path,
                             "".join(f"; run of {r['started'] or 'unrecorded start'}: {r['evaluations']} in "
                                     f"{r['seconds'] / 60:.0f} min" for r in self.runs))

@@ -239,6 +239,16 @@ def test_a_store_written_before_runs_were_kept_resumes_with_its_time_and_evaluat
     assert stored["runtime_s"] == pytest.approx(120.0 + stored["runs"][1]["seconds"])
 
 
+def test_a_store_whose_runs_list_only_the_later_ones_keeps_the_earlier_evaluations_and_time(tmp_path):
+    path = tmp_path / "evaluations.json"
+    records = [{"phase": "full", "x": [float(i), 0.0], "loss": 1.0} for i in range(3)]
+    later = {"started": "2026-11-30T03:45:00+00:00", "evaluations": 1, "seconds": 100.0}
+    path.write_text(json.dumps({"key": "key", "records": records, "seconds": 300.0, "runs": [later]}))
+    runs = EvaluationLog(path, "key").runs
+    assert [(r["started"], r["evaluations"], r["seconds"]) for r in runs[:2]] == [(None, 2, 200.0),
+                                                                                  (later["started"], 1, 100.0)]
+
+
 def test_the_simplex_stays_inside_its_box():
     seen = []
 
