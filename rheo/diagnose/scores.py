@@ -84,7 +84,7 @@ def targets(scores: dict) -> list[tuple[str, str, bool | None]]:
         (f"top-1 >= {TOP1_SHOWN:.0%} on the cases whose recording shows the effect",
          *share(scores["shown_named"], scores["shown"], TOP1_SHOWN)),
         ("no name on a null or out-of-library case",
-         f"{scores['false_alarms']} of {scores['null'] + scores['outside']}", scores["false_alarms"] == 0),
+         f"{scores['false_alarms']} of {scores['null'] + scores['outside']} named", scores["false_alarms"] == 0),
         ("held-out loss (between fitted frames) down >= 30 % where an effect is named",
          *share(scores["held_out_down_30pct"], scores["named"], 1.0)),
         ("the same on the last frames (a prediction)", *share(scores["forecast_down_30pct"], scores["named"], 1.0)),
