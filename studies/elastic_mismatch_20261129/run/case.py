@@ -17,9 +17,10 @@ def fit_simulation() -> dict:
             "forecast_share": config["diagnose"]["forecast_share"]}
 
 
-def case_files(case: str) -> tuple[dict, dict, dict]:
-    """A case's truth (truth.json), base fit (fit/params.json) and recorded setups (its setups and masks)."""
-    root = SUITE / case
+def case_files(case: str, suite: Path = SUITE) -> tuple[dict, dict, dict]:
+    """A case's truth (truth.json), base fit (fit/params.json) and recorded setups (its setups and masks), from a
+    suite's ``results/concealed``."""
+    root = suite / case
     folders = sorted(p for p in (root / "recording").iterdir() if p.is_dir())
     setups = setup_files([str(f / "setup.json") for f in folders], [str(f / "masks.npz") for f in folders])
     return (json.loads((root / "truth.json").read_text()), json.loads((root / "fit/params.json").read_text()),
