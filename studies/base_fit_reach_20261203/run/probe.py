@@ -11,15 +11,12 @@ import argparse
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from rheo.experiments.concealed import concealed_truth
-from rheo.fit.dam_break import targets
 from rheo.io import write_json_atomic
 
 STUDIES = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(STUDIES / "elastic_mismatch_20261129" / "run"))
-from case import case_files, fit_simulation  # noqa: E402
+from case import case_files, fit_simulation, simulated_losses  # noqa: E402
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
 parser.add_argument("--case", required=True, help="a case of the third suite, e.g. cbbcbb79b")
@@ -37,11 +34,8 @@ runs = [("truth", filmed.law, filmed.effects, "lab", {"mu": truth["mu_Pa"], "lam
         ("fit", base_law, None, "lab", {"mu": truth["mu_Pa"], "lam": truth["lam_Pa"]})]
 rows = []
 for law_name, law, effects, elastic_name, constants in runs:
-    found = {name: target.compare(law["tau_y"], law["K"], law["n"], effects)
-             for name, target in targets(setups, {**simulation, **constants}).items()}
-    rows.append({"law": law_name, "elastic": elastic_name, **constants,
-                 "loss_px": float(np.mean([c.loss for c in found.values()])),
-                 "setups_loss_px": {name: c.loss for name, c in found.items()}})
+    rows.append({"law": law_name, "elastic": elastic_name,
+                 **simulated_losses(setups, simulation, constants, law, effects)})
     print(rows[-1], flush=True)
 write_json_atomic(args.out, {"case": args.case, "effects": truth["effects"], "base_fit_loss_px": fit["loss_px"],
                              "law": {"truth": {p: float(filmed.law[p]) for p in ("tau_y", "K", "n")},

@@ -10,11 +10,9 @@ distance from the truth the elastic constants the fit holds account for. Run fro
 import argparse
 from pathlib import Path
 
-import numpy as np
-from case import case_files, fit_simulation
+from case import case_files, fit_simulation, simulated_losses
 
 from rheo.experiments.concealed import concealed_truth
-from rheo.fit.dam_break import targets
 from rheo.io import write_json_atomic
 
 parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -33,11 +31,8 @@ rows = []
 for law_name in args.laws.split(","):
     law, effects = laws[law_name]
     for elastic_name, constants in elastic.items():
-        found = {name: target.compare(law["tau_y"], law["K"], law["n"], effects)
-                 for name, target in targets(setups, {**simulation, **constants}).items()}
-        rows.append({"law": law_name, "elastic": elastic_name, **constants,
-                     "loss_px": float(np.mean([c.loss for c in found.values()])),
-                     "setups_loss_px": {name: c.loss for name, c in found.items()}})
+        rows.append({"law": law_name, "elastic": elastic_name,
+                     **simulated_losses(setups, simulation, constants, law, effects)})
         print(rows[-1], flush=True)
 write_json_atomic(args.out, {"case": args.case, "effects": truth["effects"], "base_fit_loss_px": fit["loss_px"],
                              "law": {k: {p: float(v[0][p]) for p in ("tau_y", "K", "n")} for k, v in laws.items()},
