@@ -27,13 +27,13 @@ simulation = fit_simulation()
 truth, fit, setups = case_files(args.case, STUDIES / "suite_20261130" / "results" / "concealed")
 filmed = concealed_truth({"effects": truth["effects"]}, {"tau_y": truth["tau_y_Pa"], "K": truth["K_Pa_s_n"]})
 base_law = {"tau_y": fit["tau_y_Pa"]["value"], "K": fit["K_Pa_s_n"]["value"], "n": fit["n"]["value"]}
-held = fit["elastic_constants_Pa"]
-runs = [("truth", filmed.law, filmed.effects, "lab", {"mu": truth["mu_Pa"], "lam": truth["lam_Pa"]}),
-        ("truth", filmed.law, filmed.effects, "lab mu, fit's lam", {"mu": truth["mu_Pa"], "lam": held["lam"]}),
-        ("truth", filmed.law, filmed.effects, "fit", held),
-        ("fit", base_law, None, "lab", {"mu": truth["mu_Pa"], "lam": truth["lam_Pa"]})]
+held, lab = fit["elastic_constants_Pa"], {"mu": truth["mu_Pa"], "lam": truth["lam_Pa"]}
+laws = {"truth": (filmed.law, filmed.effects), "fit": (base_law, None)}
+runs = [("truth", "lab", lab), ("truth", "lab mu, fit's lam", {**lab, "lam": held["lam"]}), ("truth", "fit", held),
+        ("fit", "lab", lab)]
 rows = []
-for law_name, law, effects, elastic_name, constants in runs:
+for law_name, elastic_name, constants in runs:
+    law, effects = laws[law_name]
     rows.append({"law": law_name, "elastic": elastic_name,
                  **simulated_losses(setups, simulation, constants, law, effects)})
     print(rows[-1], flush=True)
