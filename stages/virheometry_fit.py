@@ -1,12 +1,12 @@
 """virheometry_fit: tau_y, K and n (or tau_y and K at a fixed flow index) of one material from its dam breaks (all
-its setups jointly, or one), with the first frame's time after the release found for each setup. With the flow
-index free, a line search of the stress at a shear rate typical of the flow, then searches of tau_y and K at a row of
+its setups jointly, or one), with the first frame's time after the release found for each setup. First a line search
+of the stress at a shear rate typical of the flow. With the flow index free, searches of tau_y and K at a row of
 flow indices from that stress (each keeping it at first), whose best losses are the flow index's profile; with the
-flow index fixed, a survey of the box instead.
-Simplex searches from the survey's best points side by side (with the flow index fixed), then
-rounds of a composite design around the best, each followed by a quadratic fitted to the squared losses
-(rheo.fit.surface): its lowest point, or the best law evaluated where that loses less, is the estimate, and the
-region where it stays within the tolerance gives the intervals, n's grown to where its profile stays within it.
+flow index fixed, a survey of the yield stress' share of that stress (and of the shear modulus, where fitted), then
+searches from the survey's best points side by side. Then rounds of a composite design around the best, each
+followed by a quadratic fitted to the squared losses (rheo.fit.surface): its lowest point, or the best law evaluated
+where that loses less, is the estimate, and the region where it stays within the tolerance gives the intervals, n's
+grown to where its profile stays within it.
 Each evaluation simulates the setups side by side, the survey's and the designs' points two at a time.
 Every evaluation is stored, so an interrupted fit resumes."""
 
@@ -21,14 +21,17 @@ from rheo.diagnose.candidates import Law
 from rheo.experiments.rheometer import PARAMETER_KEYS, RESULT_KEYS
 from rheo.fit.dam_break import (
     MOVING_RATE,
+    clipped_law,
     comparisons,
     flow_index_profile,
     setup_files,
     shear_rate_band,
     stress_level,
+    valley_points,
+    valley_searches,
 )
 from rheo.fit.parallel import Evaluator
-from rheo.fit.search import EvaluationLog, estimate, start_step, survey_points
+from rheo.fit.search import EvaluationLog, estimate
 from rheo.fit.uncertainty import grown_to_profile, tolerance_level
 from rheo.io import json_number, write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
@@ -68,26 +71,25 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
         return losses
 
     evaluate_many = partial(evaluations.evaluate_many, joint)  # points, phase -> losses, stored
-    searched_flow_indices = law.n is None and bool(settings["flow_index_searches"])
-    if searched_flow_indices:
-        # the shear modulus, where fitted (the last coordinate), starts at the simulation's, within its box
-        rest = np.clip(np.log([simulation["mu"]]), low[-1:], high[-1:]) if law.fitted_modulus else []
-        log_stress = stress_level(evaluate_many, settings["stress_rate"], (low, high), settings["stress_evaluations"],
-                                  rest=rest)
-        found = flow_index_profile(evaluate_many, log_stress, settings["flow_index_searches"],
-                                   settings["stress_rate"], settings["flow_index_evaluations"], (low, high), rest)
-        # the surface is centred on the searches' best law, without simplex searches
-        simplex_evaluations, step = 0, 0.0
+    rate = settings["stress_rate"]
+    # the shear modulus, where fitted (the last coordinate), starts at the simulation's, within its box
+    rest = np.clip(np.log([simulation["mu"]]), low[-1:], high[-1:]) if law.fitted_modulus else []
+    log_stress = stress_level(evaluate_many, rate, (low, high), settings["stress_evaluations"],
+                              1.0 if law.n is None else law.n, rest, free_n=law.n is None)
+    if law.n is None:
+        found = flow_index_profile(evaluate_many, log_stress, settings["flow_index_searches"], rate,
+                                   settings["flow_index_evaluations"], (low, high), rest)
     else:
-        points = survey_points(0.5 * (low + high), 0.5 * (high - low), settings["samples"])
+        rests = np.log(settings["moduli"])[:, None] if law.fitted_modulus else [[]]
+        points = valley_points(log_stress, settings["shares"], rests)
         # in chunks that keep every worker busy, each stored as it ends
         chunk = max(smk.threads, 1)
-        losses = np.concatenate([evaluate_many(list(points[i:i + chunk]), "survey")
+        losses = np.concatenate([evaluate_many([clipped_law(z, law.n, rate, (low, high), free_n=False)
+                                                for z in points[i:i + chunk]], "survey")
                                  for i in range(0, len(points), chunk)])
-        found = list(zip(points, losses, strict=True))
-        simplex_evaluations = settings["evaluations"]
-        step = start_step((high - low).min(), settings["samples"], len(names))
-    starts = [x for x, _ in sorted(found, key=lambda f: f[1])[:settings["starts"]]]
+        ranked = [points[i] for i in np.argsort(losses, kind="stable")[:settings["starts"]]]
+        found = valley_searches(evaluate_many, ranked, law.n, rate, settings["evaluations"], (low, high))
+    best_law = min(found, key=lambda f: f[1])[0]  # the surface is centred on the searches' best law
 
     def simulate(x: np.ndarray) -> dict:
         """Each setup's comparison at ``x``, with its frames, IoU and shear rates."""
@@ -101,13 +103,13 @@ with Evaluator(partial(comparisons, setups, simulation, law), workers=smk.thread
         return evaluations.evaluate_many(lambda _: [float(np.mean([d.loss for d in simulated[tuple(x)].values()]))],
                                          [x], "estimate")[0]
 
-    result = estimate(evaluate_many, starts, names, seen=evaluations.seen,
-                      evaluations=simplex_evaluations, start_step=step, half_width=settings["half_width"],
+    result = estimate(evaluate_many, [best_law], names, seen=evaluations.seen,
+                      evaluations=0, start_step=0.0, half_width=settings["half_width"],
                       rounds=settings["rounds"], tolerance=settings["tolerance"], box=(low, high), side_by_side=True,
                       evaluate_estimate=evaluate_estimate)
     x, loss, intervals = result.log_values, result.loss, result.intervals
     profile_record = None
-    if searched_flow_indices:
+    if law.n is None:
         by_index = sorted(found, key=lambda f: f[0][2])
         for law_x, value in by_index:
             log.info("flow-index profile: loss %.5g px at %s", value, describe(law_x))

@@ -229,37 +229,51 @@ def from_stress_split(z: np.ndarray, n: float, rate: float) -> np.ndarray:
     return np.log([share * stress, (1.0 - share) * stress / rate ** n, n])
 
 
-def clipped_law(z: np.ndarray, n: float, rate: float, box: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-    """``from_stress_split``'s law (``z``'s first two entries), then ``z``'s further coordinates (the shear modulus'
-    log, where fitted), clipped to ``box``."""
-    return np.clip(np.r_[from_stress_split(z[:2], n, rate), z[2:]], *box)
+def clipped_law(z: np.ndarray, n: float, rate: float, box: tuple[np.ndarray, np.ndarray],
+                free_n: bool = True) -> np.ndarray:
+    """``from_stress_split``'s law (``z``'s first two entries; its log n dropped where the flow index is fixed,
+    ``free_n`` False), then ``z``'s further coordinates (the shear modulus' log, where fitted), clipped to ``box``."""
+    law = from_stress_split(z[:2], n, rate)
+    return np.clip(np.r_[law if free_n else law[:2], z[2:]], *box)
 
 
 def stress_level(evaluate_many: EvaluateMany, rate: float, box: tuple[np.ndarray, np.ndarray], evaluations: int,
-                 n: float = 1.0, rest: Sequence[float] = ()) -> float:
+                 n: float = 1.0, rest: Sequence[float] = (), free_n: bool = True) -> float:
     """The log of the stress at ``rate`` that fits best among the laws of flow index ``n`` whose stress is split
     evenly (phase "stress"), the coordinates after the law held at ``rest``: bounded Brent over the stresses whose
-    law lies in ``box``, at most ``evaluations`` iterations, to ``STRESS_TOLERANCE``. A dam break's silhouettes fix
-    that stress tightly and the rest of the law loosely, so one line search places the flow-index searches' starts in
-    the valley of good laws (on Lotion a survey of 12 points of the box came within 3 to 5 times the fit's loss at
-    best)."""
+    law lies in ``box`` (of laws with log n unless ``free_n`` is False), at most ``evaluations`` iterations, to
+    ``STRESS_TOLERANCE``. A dam break's silhouettes fix that stress tightly and the rest of the law loosely, so one
+    line search places the searches' starts in the valley of good laws (on Lotion a survey of 12 points of the box
+    came within 3 to 5 times the fit's loss at best)."""
     (tau_y_low, k_low), (tau_y_high, k_high) = np.exp(box[0][:2]), np.exp(box[1][:2])
     viscous = rate ** n
     bounds = (np.log(2.0 * max(tau_y_low, k_low * viscous)), np.log(2.0 * min(tau_y_high, k_high * viscous)))
-    result = minimize_scalar(lambda z: evaluate_many([clipped_law(np.r_[z, 0.0, rest], n, rate, box)], "stress")[0],
+    result = minimize_scalar(lambda z: evaluate_many([clipped_law(np.r_[z, 0.0, rest], n, rate, box, free_n)],
+                                                     "stress")[0],
                              bounds=bounds, method="bounded",
                              options={"xatol": STRESS_TOLERANCE, "maxiter": evaluations})
     return float(result.x)
 
 
+def valley_search(evaluate_many: EvaluateMany, start: np.ndarray, n: float, rate: float, evaluations: int,
+                  box: tuple[np.ndarray, np.ndarray], phase: str, rest_step: float = 0.5,
+                  free_n: bool = True) -> tuple[np.ndarray, float]:
+    """Nelder-Mead over laws of flow index ``n`` from ``start`` in (log stress at ``rate``, logit of the yield
+    stress' share, the coordinates after the law), initial steps ``STRESS_STEP``, ``SHARE_STEP`` and ``rest_step``,
+    at most ``evaluations``, laws clipped to ``box`` (``clipped_law``): the best law and its loss."""
+    steps = np.r_[STRESS_STEP, SHARE_STEP, np.full(len(start) - 2, rest_step)]
+    z, loss = simplex_search(lambda z, ph: evaluate_many([clipped_law(z, n, rate, box, free_n)], ph)[0], start,
+                             steps, evaluations, phase)
+    return clipped_law(z, n, rate, box, free_n), loss
+
+
 def flow_index_profile(evaluate_many: EvaluateMany, log_stress: float, flow_indices: Sequence[float], rate: float,
                        evaluations: int, box: tuple[np.ndarray, np.ndarray], rest: Sequence[float] = (),
                        rest_step: float = 0.5) -> list[tuple[np.ndarray, float]]:
-    """A search of tau_y and K at each of ``flow_indices`` (phases "n <value>", side by side), each from the law of
-    that index with the stress exp(``log_stress``) at ``rate`` (``stress_level``'s) split evenly between yield and
-    viscous stress, in those two coordinates (``stress_split``; Nelder-Mead, initial steps ``STRESS_STEP`` and
-    ``SHARE_STEP``, ``evaluations`` each, laws clipped to ``box``), and of the coordinates after the law (the shear
-    modulus' log, where fitted) from ``rest`` (initial step ``rest_step``): each search's best point and its loss.
+    """A ``valley_search`` at each of ``flow_indices`` (phases "n <value>", side by side), each from the law of that
+    index with the stress exp(``log_stress``) at ``rate`` (``stress_level``'s) split evenly between yield and viscous
+    stress and the coordinates after the law (the shear modulus' log, where fitted) at ``rest``: each search's best
+    point and its loss.
 
     A dam break's silhouettes fix the stress at the shear rates of its flow tightly and its split between yield and
     viscous stress and the flow index loosely, so equally good laws lie along a curved valley in (tau_y, K, n), with
@@ -267,12 +281,31 @@ def flow_index_profile(evaluate_many: EvaluateMany, log_stress: float, flow_indi
     start in the valley; the even split lets it reach a basin on either side, where a survey's best may lie at an
     extreme split in a worse basin (docs/settings.md, `flow_index_searches`)."""
     start = np.r_[log_stress, 0.0, rest]
-    steps = np.r_[STRESS_STEP, SHARE_STEP, np.full(len(rest), rest_step)]
 
     def search(n: float) -> tuple[np.ndarray, float]:
-        z, loss = simplex_search(lambda z, phase: evaluate_many([clipped_law(z, n, rate, box)], phase)[0], start,
-                                 steps, evaluations, f"n {n:g}")
-        return clipped_law(z, n, rate, box), loss
+        return valley_search(evaluate_many, start, n, rate, evaluations, box, f"n {n:g}", rest_step)
 
     with ThreadPoolExecutor(len(flow_indices)) as threads:
         return list(threads.map(search, flow_indices))
+
+
+def valley_points(log_stress: float, shares: Sequence[float], rests: Sequence[Sequence[float]]) -> list[np.ndarray]:
+    """A survey along the valley at a fixed flow index: the stress exp(``log_stress``) at the stress rate split at
+    each of ``shares`` (the yield stress' share), with each of ``rests`` after it (the shear modulus' log, where
+    fitted), as ``valley_search`` coordinates. At a fixed stress, basins of nearly equal loss lie far apart in that
+    split and the modulus, where a survey of the whole box rarely lands in the deepest (docs/settings.md)."""
+    return [np.r_[log_stress, np.log(share / (1.0 - share)), rest] for share in shares for rest in rests]
+
+
+def valley_searches(evaluate_many: EvaluateMany, starts: Sequence[np.ndarray], n: float, rate: float,
+                    evaluations: int, box: tuple[np.ndarray, np.ndarray],
+                    rest_step: float = 0.5) -> list[tuple[np.ndarray, float]]:
+    """A ``valley_search`` at the fixed flow index ``n`` from each of ``starts`` (phases "start 1", "start 2", ...,
+    side by side): each one's best law (log tau_y, log K, then the rest) and its loss."""
+
+    def search(k: int) -> tuple[np.ndarray, float]:
+        return valley_search(evaluate_many, starts[k], n, rate, evaluations, box, f"start {k + 1}", rest_step,
+                             free_n=False)
+
+    with ThreadPoolExecutor(len(starts)) as threads:
+        return list(threads.map(search, range(len(starts))))

@@ -10,6 +10,7 @@ from rheo.experiments.effects import Effects
 from rheo.fit.dam_break import (
     OFFSET_STEP,
     DamBreakTarget,
+    clipped_law,
     compare_law,
     flow_index_profile,
     frame_steps,
@@ -19,6 +20,8 @@ from rheo.fit.dam_break import (
     stress_level,
     stress_split,
     target,
+    valley_points,
+    valley_searches,
 )
 from rheo.fit.search import simplex_search
 from rheo.render.silhouette import boundary_distance, distance_to
@@ -178,3 +181,38 @@ def test_the_flow_index_searches_move_a_fitted_shear_modulus_from_its_start():
     assert [np.exp(x[2]) for x, _ in found] == pytest.approx([0.7, 1.0])
     (x, value), = [f for f in found if np.exp(f[0][2]) == pytest.approx(1.0)]
     assert abs(x[3] - np.log(600.0)) < 0.35 and value < loss(np.r_[x[:3], np.log(300.0)])
+
+
+def test_at_a_fixed_flow_index_the_valley_survey_and_searches_find_the_deeper_basin_and_its_shear_modulus():
+    """Bingham laws of stress 62 Pa at 10 1/s with a shallow basin at a yield stress' share of 0.2 and 530 Pa and a
+    deeper one at 0.62 and 450 Pa, six times lower (as a null concealed case's recordings gave): the stress search
+    places the stress, the survey along it lands near the deeper basin, and the searches from its best points reach
+    its floor and modulus."""
+    rate, box = 10.0, (np.log([0.5, 0.1, 30.0]), np.log([100.0, 50.0, 3000.0]))
+
+    def loss(x):
+        log_stress, logit_share = stress_split(np.r_[x[:2], 0.0], rate)
+        shallow = 0.0226 + 0.05 * (logit_share - np.log(0.2 / 0.8)) ** 2 + 0.05 * (x[2] - np.log(530.0)) ** 2
+        deep = 0.0036 + 0.05 * (logit_share - np.log(0.62 / 0.38)) ** 2 + 0.2 * (x[2] - np.log(450.0)) ** 2
+        return min(shallow, deep) + 2.0 * (log_stress - np.log(62.0)) ** 2
+
+    def evaluate_many(points, phase):
+        phases.append(phase)
+        assert all(len(x) == 3 and np.all((box[0] <= x) & (x <= box[1])) for x in points)
+        return [loss(x) for x in points]
+
+    phases = []
+    log_stress = stress_level(evaluate_many, rate, box, 8, rest=[np.log(300.0)], free_n=False)
+    assert np.exp(log_stress) == pytest.approx(62.0, rel=0.05)
+    points = valley_points(log_stress, [0.1, 0.3, 0.5, 0.7, 0.9], np.log([100.0, 300.0, 1000.0])[:, None])
+    laws = [clipped_law(z, 1.0, rate, box, free_n=False) for z in points]
+    assert len(laws) == 15 and np.allclose(laws[6], [np.log(0.5 * np.exp(log_stress)),
+                                                     np.log(0.05 * np.exp(log_stress)), np.log(100.0)])
+    losses = evaluate_many(laws, "survey")
+    starts = [points[i] for i in np.argsort(losses)[:2]]
+    found = valley_searches(evaluate_many, starts, 1.0, rate, 40, box)
+    x, value = min(found, key=lambda f: f[1])
+    tau_y, K, mu = np.exp(x)
+    assert value < 0.0045 and mu == pytest.approx(450.0, rel=0.1)
+    assert tau_y / (tau_y + K * rate) == pytest.approx(0.62, abs=0.05)
+    assert sorted(set(phases)) == ["start 1", "start 2", "stress", "survey"] and len(phases) <= 9 + 1 + 2 * 40

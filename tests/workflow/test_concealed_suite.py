@@ -24,7 +24,8 @@ def test_a_small_drawn_suite_scores_at_least_its_floor(workflow):
     (workflow.root / "tiny.yaml").write_text(
         "virheometry: {simulation: {cells_per_height: 4, cells_across: 4, max_offset: 0.05}}\n"
         "concealed:\n  cases: suite\n  scene: {frames: 6}\n  lab: {cells_per_height: 6, cells_across: 6}\n"
-        "  fit: {samples: 4, evaluations: 6, starts: 1, rounds: 1}\n"
+        "  fit: {stress_evaluations: 3, shares: [0.3, 0.7], moduli: [100.0, 300.0], evaluations: 6, starts: 1, "
+        "rounds: 1}\n"
         "diagnose: {rung_evaluations: 2, refit_evaluations: 2, open_evaluations: 8}\n")
     run = workflow.run("results/concealed/summary.json", "--configfile", "tiny.yaml", timeout=3600)
     assert run.returncode == 0, run.stderr[-3000:]

@@ -12,7 +12,7 @@ def quick_config(fit: str, diagnose: str) -> str:
     """A coarse lab, a coarser fit and short searches; ``fit`` and ``diagnose``: more of their settings."""
     return ("virheometry: {simulation: {max_offset: 0.05, cells_per_height: 4, cells_across: 4}}\n"
             "concealed:\n  cases: cases\n  scene: {frames: 4}\n  lab: {cells_per_height: 5, cells_across: 5}\n"
-            f"  fit: {{evaluations: 2, starts: 1, rounds: 1, {fit}}}\n"
+            f"  fit: {{stress_evaluations: 2, evaluations: 2, starts: 1, rounds: 1, {fit}}}\n"
             f"diagnose: {{rung_evaluations: 2, refit_evaluations: 2, {diagnose}}}\n")
 
 
@@ -24,8 +24,8 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
     (cases / "sliding.yaml").write_text("name: sliding\neffects: [{effect: floor_friction, magnitude: 0.3}]\n"
                                         "release_s: 0.025\n")
     (workflow.root / "quick.yaml").write_text(quick_config(
-        "samples: 2, mu: null", "candidates: [floor_friction, gravity_tilt], open_evaluations: 8, held_out_every: 3, "
-        "forecast_share: 0.25"))
+        "shares: [0.3, 0.7], mu: null",
+        "candidates: [floor_friction, gravity_tilt], open_evaluations: 8, held_out_every: 3, forecast_share: 0.25"))
     run = workflow.run("results/concealed/summary.html", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]
     result = workflow.root / "results/concealed"
@@ -91,7 +91,7 @@ def test_a_case_of_another_shear_modulus_is_fitted_and_diagnosed_with_the_modulu
     cases = workflow.root / "cases"
     cases.mkdir()
     (cases / "soft.yaml").write_text("name: soft\neffects: []\nelastic: {mu: 120.0, lam: 10000.0}\n")
-    (workflow.root / "quick.yaml").write_text(quick_config("samples: 3",
+    (workflow.root / "quick.yaml").write_text(quick_config("shares: [0.5], moduli: [100.0, 300.0]",
                                                            "candidates: [air_drag], open_evaluations: 0"))
     run = workflow.run("results/concealed/soft/diagnosis/diagnosis.json", "--configfile", "quick.yaml")
     assert run.returncode == 0, run.stderr[-3000:]

@@ -18,7 +18,7 @@ from tests.conftest import table_cells
 def test_a_setup_is_imported_and_fitted(workflow):
     (workflow.root / "quick.yaml").write_text(
         "virheometry:\n  simulation: {cells_per_height: 4, cells_across: 4, max_offset: 0.05}\n"
-        "  fit: {samples: 2, evaluations: 2, starts: 1, rounds: 1, flow_index_searches: [0.7, 1.0],\n"
+        "  fit: {shares: [0.5], evaluations: 2, starts: 1, rounds: 1, flow_index_searches: [0.7, 1.0],\n"
         "        flow_index_evaluations: 2, stress_evaluations: 2}\n")
     run = workflow.run("results/virheometry/Carbonara/fit_setup2/params.json",
                        "results/virheometry/Carbonara/report.html", "--configfile", "quick.yaml")
