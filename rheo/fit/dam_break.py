@@ -292,8 +292,8 @@ def flow_index_profile(evaluate_many: EvaluateMany, log_stress: float, flow_indi
 def valley_points(log_stress: float, shares: Sequence[float], rests: Sequence[Sequence[float]]) -> list[np.ndarray]:
     """A survey along the valley at a fixed flow index: the stress exp(``log_stress``) at the stress rate split at
     each of ``shares`` (the yield stress' share), with each of ``rests`` after it (the shear modulus' log, where
-    fitted), as ``valley_search`` coordinates. At a fixed stress, basins of nearly equal loss lie far apart in that
-    split and the modulus, where a survey of the whole box rarely lands in the deepest (docs/settings.md)."""
+    fitted), as ``valley_search`` coordinates. At a fixed stress, basins far apart in that split and the modulus lose
+    very different amounts, and a survey of the whole box may land in the shallower (docs/settings.md, `shares`)."""
     return [np.r_[log_stress, np.log(share / (1.0 - share)), rest] for share in shares for rest in rests]
 
 
