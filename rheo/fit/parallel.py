@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 
@@ -40,9 +41,11 @@ def _run(name: str, x: np.ndarray) -> object:
 
 
 class Evaluator:
-    """Named objectives evaluated in ``workers`` processes (in this process when ``workers`` is 1). ``build`` must
-    be picklable (a module-level function or a functools.partial of one) and return the objectives by name (a
-    mapping, which may build an objective when it is first asked for); their values must be picklable."""
+    """Named objectives evaluated in ``workers`` processes (in this process when ``workers`` is 1, one call at a time
+    whichever thread asks: searches run side by side in threads, and a simulator's first launch loads its kernels,
+    which two threads must not do at once). ``build`` must be picklable (a module-level function or a
+    functools.partial of one) and return the objectives by name (a mapping, which may build an objective when it is
+    first asked for); their values must be picklable."""
 
     def __init__(self, build: Callable[[], dict[str, Objective]], workers: int) -> None:
         if workers > 1 and resolve_device() != "cpu":
@@ -57,11 +60,13 @@ class Evaluator:
         else:
             self._pool = None
             self._local = build()
+            self._local_lock = threading.Lock()
 
     def map(self, tasks: Sequence[tuple[str, np.ndarray]]) -> list:
         """The value of every (objective name, point), in order."""
         if self._pool is None:
-            return [self._local[name](x) for name, x in tasks]
+            with self._local_lock:
+                return [self._local[name](x) for name, x in tasks]
         futures = [self._pool.submit(_run, name, np.asarray(x)) for name, x in tasks]
         return [f.result() for f in futures]
 

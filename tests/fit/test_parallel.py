@@ -4,6 +4,9 @@ import os
 import subprocess
 import sys
 import textwrap
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from pathlib import Path
 
@@ -59,3 +62,28 @@ def test_workers_forked_after_the_parent_ran_threads_run_on_one_thread_and_do_no
                          cwd=Path(__file__).resolve().parents[2])
     assert run.returncode == 0, run.stderr
     assert run.stdout.strip().splitlines()[-1] == "[1.0, 1.0, 1.0, 1.0]"
+
+
+class _Overlap:
+    """An objective that counts how many calls are inside it at once."""
+
+    def __init__(self) -> None:
+        self.inside, self.most = 0, 0
+        self.lock = threading.Lock()
+
+    def __call__(self, x: np.ndarray) -> float:
+        with self.lock:
+            self.inside += 1
+            self.most = max(self.most, self.inside)
+        time.sleep(0.02)
+        with self.lock:
+            self.inside -= 1
+        return float(x[0])
+
+
+def test_in_process_evaluations_asked_for_from_threads_run_one_at_a_time():
+    overlap = _Overlap()
+    with Evaluator(lambda: {"slow": overlap}, workers=1) as local, ThreadPoolExecutor(4) as threads:
+        values = list(threads.map(lambda i: local.map([("slow", np.array([float(i)]))] * 3), range(8)))
+    assert values == [[float(i)] * 3 for i in range(8)]
+    assert overlap.most == 1
