@@ -41,11 +41,9 @@ def _run(name: str, x: np.ndarray) -> object:
 
 
 class Evaluator:
-    """Named objectives evaluated in ``workers`` processes (in this process when ``workers`` is 1, one call at a time
-    whichever thread asks: searches run side by side in threads, and a simulator's first launch loads its kernels,
-    which two threads must not do at once). ``build`` must be picklable (a module-level function or a
-    functools.partial of one) and return the objectives by name (a mapping, which may build an objective when it is
-    first asked for); their values must be picklable."""
+    """Named objectives evaluated in ``workers`` processes (in this process, one call at a time, when ``workers`` is
+    1). ``build`` must be picklable (a module-level function or a functools.partial of one) and return the objectives
+    by name (a mapping, which may build an objective when it is first asked for); their values must be picklable."""
 
     def __init__(self, build: Callable[[], dict[str, Objective]], workers: int) -> None:
         if workers > 1 and resolve_device() != "cpu":
@@ -60,6 +58,7 @@ class Evaluator:
         else:
             self._pool = None
             self._local = build()
+            # searches run side by side in threads; two must not load a simulator's kernels at once
             self._local_lock = threading.Lock()
 
     def map(self, tasks: Sequence[tuple[str, np.ndarray]]) -> list:
