@@ -8,13 +8,16 @@ stored evaluations.
     python -m rheo.archive restore ARCHIVE
 
 The archive is a plain folder (the files under their paths, ``mtimes.json`` and ``inputs.json``), so a
-version-control system stores only the files that changed between two saves."""
+version-control system stores only the files that changed between two saves. A log that a rerun started afresh
+(Snakemake empties a job's log when it starts the job again) does not replace the archived one: that is kept
+beside it as ``NAME.earlier-K.log``."""
 
 from __future__ import annotations
 
 import argparse
 import filecmp
 import os
+import re
 import shutil
 import sys
 from collections.abc import Callable, Sequence
@@ -24,6 +27,7 @@ from rheo.io import file_sha256, read_json, write_atomic, write_json_atomic
 
 MTIMES = "mtimes.json"  # archived file: its modification time (ns)
 INPUTS = "inputs.json"  # input file: its modification time (ns) and sha256
+EARLIER_LOG = re.compile(r"\.earlier-\d+\.log$")  # an archived log of an earlier run of the same job
 
 
 class ArchiveError(Exception):
@@ -55,24 +59,46 @@ def _copy(source: Path, target: Path, mtime_ns: int) -> None:
     os.utime(target, ns=(mtime_ns, mtime_ns))
 
 
+def _continues(source: Path, target: Path) -> bool:
+    """Whether ``source`` begins with the whole of ``target`` (a log that grew since it was archived)."""
+    size = target.stat().st_size
+    if source.stat().st_size < size:
+        return False
+    with source.open("rb") as new, target.open("rb") as old:
+        return new.read(size) == old.read()
+
+
+def _set_aside(target: Path) -> Path:
+    """Rename an archived log to the first free ``NAME.earlier-K.log`` beside it."""
+    k = 1
+    while (earlier := target.with_name(f"{target.stem}.earlier-{k}.log")).exists():
+        k += 1
+    target.rename(earlier)
+    return earlier
+
+
 def save(archive: str | os.PathLike, folders: Sequence[str], root: str | os.PathLike = ".",
          inputs: Sequence[str] = ()) -> dict[str, int]:
     """Mirror the files under ``folders`` into ``archive`` with their modification times (files that left those
-    folders leave the archive), and list the files under ``inputs`` by time and fingerprint. Returns how many files
-    were copied, kept, removed and listed."""
+    folders leave the archive, except logs of earlier runs), and list the files under ``inputs`` by time and
+    fingerprint. Returns how many files were copied, kept, removed and listed, and how many logs were set aside."""
     archive, root = Path(archive), Path(root)
     files = _files(root, folders)
     old = read_json(archive / MTIMES) if (archive / MTIMES).is_file() else {}
-    mtimes, copied = {}, 0
+    mtimes, copied, set_aside = {}, 0, 0
     for relative, source in sorted(files.items()):
         mtimes[relative] = source.stat().st_mtime_ns
         target = archive / relative
         if not (target.is_file() and filecmp.cmp(source, target, shallow=False)):
+            if target.suffix == ".log" and target.is_file() and not _continues(source, target):
+                archived_ns = target.stat().st_mtime_ns
+                mtimes[_set_aside(target).relative_to(archive).as_posix()] = archived_ns
+                set_aside += 1
             _copy(source, target, mtimes[relative])
             copied += 1
     removed = 0
     for relative in set(old) - set(mtimes):
-        if any(relative.startswith(f"{Path(f).as_posix()}/") for f in folders):
+        if not EARLIER_LOG.search(relative) and any(relative.startswith(f"{Path(f).as_posix()}/") for f in folders):
             (archive / relative).unlink(missing_ok=True)
             removed += 1
         else:  # a folder not saved this time stays as it was
@@ -82,7 +108,8 @@ def save(archive: str | os.PathLike, folders: Sequence[str], root: str | os.Path
               for relative, path in sorted(_files(root, inputs).items())}
     if inputs or not (archive / INPUTS).is_file():  # a save without inputs keeps the earlier listing
         write_json_atomic(archive / INPUTS, listed)
-    return {"copied": copied, "kept": len(files) - copied, "removed": removed, "inputs listed": len(listed)}
+    return {"copied": copied, "kept": len(files) - copied, "removed": removed, "inputs listed": len(listed),
+            "earlier logs set aside": set_aside}
 
 
 def _listing(path: Path, valid: Callable[[object], bool], what: str) -> dict:

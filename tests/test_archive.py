@@ -106,12 +106,14 @@ def test_times_are_kept_and_only_changed_files_are_copied(tmp_path):
     (tree / "results/x/.params.json.123.tmp").write_text("half")  # a writer's temporary
     os.utime(tree / "results/x/params.json", ns=(1_700_000_000_123_456_789,) * 2)
 
-    assert save(archive, ["results"], root=tree) == {"copied": 2, "kept": 0, "removed": 0, "inputs listed": 0}
+    assert save(archive, ["results"], root=tree) == {"copied": 2, "kept": 0, "removed": 0, "inputs listed": 0,
+                                                     "earlier logs set aside": 0}
     assert not (archive / "results/x/.params.json.123.tmp").exists()
 
     (tree / "results/x/evaluations.json").write_text('{"records": [1, 2]}')
     (tree / "results/x/params.json").unlink()
-    assert save(archive, ["results"], root=tree) == {"copied": 1, "kept": 0, "removed": 1, "inputs listed": 0}
+    assert save(archive, ["results"], root=tree) == {"copied": 1, "kept": 0, "removed": 1, "inputs listed": 0,
+                                                     "earlier logs set aside": 0}
 
     (tree / "results/x/params.json").write_text("{}")
     os.utime(tree / "results/x/params.json", ns=(1_700_000_000_123_456_789,) * 2)
@@ -139,6 +141,33 @@ def test_restore_leaves_files_already_there_and_save_keeps_folders_not_named(tmp
     assert (copy / "results/f.txt").read_text() == "newer, local"
     assert (copy / "results/f.txt").stat().st_mtime_ns == local
     assert (copy / "logs/f.txt").read_text() == "logs"
+
+
+def test_a_log_that_a_rerun_started_afresh_leaves_the_earlier_runs_log_archived_beside_it(tmp_path):
+    tree, archive, copy = tmp_path / "tree", tmp_path / "archive", tmp_path / "copy"
+    tree.mkdir()
+    (tree / "Snakefile").write_text('rule a:\n    output: "results/a.txt"\n    log: "logs/a.log"\n'
+                                    '    shell: "echo $RUN >> {log} && echo $RUN >> {log} && touch {output}"\n')
+    run = {**os.environ, "RUN": "first"}
+    subprocess.run([sys.executable, "-m", "snakemake", "-j1", "results/a.txt"], cwd=tree, check=True, env=run,
+                   capture_output=True)
+    save(archive, ["results", "logs"], root=tree)
+    with (tree / "logs/a.log").open("a") as log:  # a log that grew since: no earlier run to keep
+        log.write("first, more\n")
+    assert save(archive, ["logs"], root=tree)["earlier logs set aside"] == 0
+
+    run["RUN"] = "second"  # Snakemake empties the log of a job it runs again
+    subprocess.run([sys.executable, "-m", "snakemake", "-j1", "-f", "results/a.txt"], cwd=tree, check=True, env=run,
+                   capture_output=True)
+    assert (tree / "logs/a.log").read_text().split() == ["second", "second"]
+    assert save(archive, ["results", "logs"], root=tree)["earlier logs set aside"] == 1
+    assert (archive / "logs/a.earlier-1.log").read_text().split() == ["first", "first", "first,", "more"]
+    assert (archive / "logs/a.log").read_text().split() == ["second", "second"]
+
+    (tree / "logs/a.log").unlink()  # the job's log gone from the tree: the earlier run's stays archived
+    save(archive, ["logs"], root=tree)
+    assert restore(archive, root=copy)["restored"] == 2
+    assert (copy / "logs/a.earlier-1.log").read_text().split() == ["first", "first", "first,", "more"]
 
 
 def test_bad_input_gets_one_error_naming_the_path(tmp_path, capsys):
