@@ -40,9 +40,9 @@ with open("runs.log", "a") as log:
 """
 
 
-def snakemake(workdir: Path, target: str = "all", *options: str) -> None:
+def snakemake(workdir: Path, target: str = "all", *options: str, env: dict[str, str] | None = None) -> None:
     subprocess.run([sys.executable, "-m", "snakemake", "-j1", target, *options], cwd=workdir, check=True,
-                   capture_output=True)
+                   capture_output=True, env=env)
 
 
 def half_run(tree: Path, snakefile: str = SNAKEFILE, inputs: tuple[str, ...] = ("config/a.txt",)) -> None:
@@ -149,16 +149,14 @@ def test_a_log_that_a_rerun_started_afresh_leaves_the_earlier_runs_log_archived_
     (tree / "Snakefile").write_text('rule a:\n    output: "results/a.txt"\n    log: "logs/a.log"\n'
                                     '    shell: "echo $RUN >> {log} && echo $RUN >> {log} && touch {output}"\n')
     run = {**os.environ, "RUN": "first"}
-    subprocess.run([sys.executable, "-m", "snakemake", "-j1", "results/a.txt"], cwd=tree, check=True, env=run,
-                   capture_output=True)
+    snakemake(tree, "results/a.txt", env=run)
     save(archive, ["results", "logs"], root=tree)
     with (tree / "logs/a.log").open("a") as log:  # a log that grew since: no earlier run to keep
         log.write("first, more\n")
     assert save(archive, ["logs"], root=tree)["earlier logs set aside"] == 0
 
     run["RUN"] = "second"  # Snakemake empties the log of a job it runs again
-    subprocess.run([sys.executable, "-m", "snakemake", "-j1", "-f", "results/a.txt"], cwd=tree, check=True, env=run,
-                   capture_output=True)
+    snakemake(tree, "results/a.txt", "-f", env=run)
     assert (tree / "logs/a.log").read_text().split() == ["second", "second"]
     assert save(archive, ["results", "logs"], root=tree)["earlier logs set aside"] == 1
     assert (archive / "logs/a.earlier-1.log").read_text().split() == ["first", "first", "first,", "more"]
