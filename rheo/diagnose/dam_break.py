@@ -17,9 +17,19 @@ from functools import partial
 
 import numpy as np
 
-from rheo.diagnose.candidates import CANDIDATES, OPEN_BOX, OPEN_DRAG, OPEN_STEP, Candidate, Law, open_rates
+from rheo.diagnose.candidates import CANDIDATES, OPEN_BOX, OPEN_DRAG, OPEN_STEP, Candidate, Law, matched_law, open_rates
 from rheo.diagnose.residuals import Location, locate
-from rheo.diagnose.selection import Refit, choose, finalists_refitted, pays, profile_refit, refits, winner
+from rheo.diagnose.selection import (
+    Refit,
+    best_base,
+    choose,
+    confirmed,
+    finalists_refitted,
+    pays,
+    profile_refit,
+    refits,
+    winner,
+)
 from rheo.experiments.rheometer import PARAMETER_KEYS
 from rheo.experiments.virheometry import Setup
 from rheo.fit.dam_break import Comparison, compare_law, shear_rate_band, targets
@@ -90,8 +100,9 @@ def open_drag_words(rates: Sequence[float]) -> str:
 class Diagnosis:
     """The base fit, every candidate's short refit, the chosen effect's longer refit (None: no candidate explains the
     mismatch), the comparisons before and after by setup, where the base fit's mismatch lies (and the chosen
-    refit's, ``remains``), the open drag's refit where no candidate is chosen (None if not fitted), and the shear
-    rates the base fit's flow reaches."""
+    refit's, ``remains``), the open drag's refit where no candidate is chosen (None if not fitted), the shear
+    rates the base fit's flow reaches, and the base model refitted from the law of the effect that won first
+    (``recheck``; None where none won)."""
 
     law: Law
     base: Refit
@@ -104,6 +115,7 @@ class Diagnosis:
     open: Refit | None = None
     remains: dict[str, Location] | None = None
     band: list[float] | None = None  # the shear rates (1/s) the base fit's flow reaches, as stored with it
+    recheck: Refit | None = None
 
     def values(self, refit: Refit) -> dict[str, float]:
         """The law and the effect of a refit (a candidate's or the open drag's), in their units."""
@@ -119,7 +131,7 @@ class Diagnosis:
     @property
     def open_explains(self) -> bool:
         """Whether the open drag lowers the criterion below the base model's by the evidence asked of an effect."""
-        return self.open is not None and pays(self.open, self.base, self.evidence)
+        return self.open is not None and pays(self.open, best_base(self.base, self.recheck), self.evidence)
 
     @staticmethod
     def worst(location: dict[str, Location]) -> str:
@@ -138,13 +150,19 @@ class Diagnosis:
 
     def unexplained(self) -> str:
         """The verdict where no candidate is named: the mismatch that remains, where and when, in the setup that
-        shows the most of it, whether a decoy wins, and what the open drag says of it where it explains it."""
+        shows the most of it, whether a decoy wins or the recheck withdrew the winner, and what the open drag says of
+        it where it explains it."""
         verdict = f"no candidate explains the mismatch that remains ({self.worst(self.location)})"
-        decoy = winner(self.base, self.candidates, self.evidence)
-        if decoy and CANDIDATES[decoy.name].decoy:
-            verdict += (f"; {CANDIDATES[decoy.name].title} fits it better than every effect (criterion "
-                        f"{decoy.criterion - self.base.criterion:+.1f}), so no effect's gain can be told from that of "
+        first = winner(self.base, self.candidates, self.evidence)
+        if first and CANDIDATES[first.name].decoy:
+            verdict += (f"; {CANDIDATES[first.name].title} fits it better than every effect (criterion "
+                        f"{first.criterion - self.base.criterion:+.1f}), so no effect's gain can be told from that of "
                         "a change that is no physics of the material")
+        elif first and self.recheck is not None:
+            verdict += (f"; {CANDIDATES[first.name].title} fitted better (criterion "
+                        f"{first.criterion - self.base.criterion:+.1f}) with a law the base fit had missed, and the "
+                        f"base model refitted from that law comes within the evidence of it (criterion "
+                        f"{self.recheck.criterion - self.base.criterion:+.1f})")
         if self.open_explains:
             verdict += (f"; an open drag explains part of it ({self.base.loss:.3g} to {self.open.loss:.3g} px): it "
                         f"{open_drag_words(open_rates(self.open.x))}")
@@ -180,6 +198,8 @@ class Diagnosis:
             "verdict": self.verdict(),
             "magnitude": None if chosen is None else self.values(chosen)[chosen.name],
             "refit": None if chosen is None else fit(chosen),
+            "recheck": None if self.recheck is None else {
+                **fit(self.recheck), "delta_criterion": self.recheck.criterion - self.base.criterion},
             "open": None if self.open is None else {
                 **fit(self.open), "delta_criterion": self.open.criterion - self.base.criterion,
                 "explains": self.open_explains, "words": open_drag_words(open_rates(self.open.x))},
@@ -267,14 +287,32 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
         for r in sorted(found, key=lambda r: r.criterion):
             logger.info("%s: loss %.4g px (base %.4g), criterion %+.2f", r.name, r.loss, base.loss,
                         r.criterion - base.criterion)
-        chosen = choose(base, found, settings["evidence"])
+
+        def base_from(refit: Refit) -> Refit:
+            """The base model searched from ``refit``'s law (its flow curve matched over the band at the base's flow
+            index where the refit changed that index)."""
+            start = np.asarray(refit.x[:len(x_base)])
+            candidate = CANDIDATES[refit.name]
+            n = candidate.flow_index(candidate.value(float(refit.x[-1])), law.n)
+            if band is not None and law.n is not None and n != law.n:
+                start = np.r_[matched_law(start, n, law.n, band), start[2:]]
+            return searched("base", np.clip(start, *law_box), [], [], [], settings["refit_evaluations"],
+                            f"recheck {refit.name}")
+
+        if settings["refit_evaluations"] > 0:
+            chosen, recheck = confirmed(base, found, settings["evidence"], base_from)
+        else:
+            chosen, recheck = choose(base, found, settings["evidence"]), None
+        if recheck is not None:
+            logger.info("base model refitted from the winner's law: loss %.4g px, criterion %+.2f%s", recheck.loss,
+                        recheck.criterion - base.criterion, "" if chosen else "; nothing named")
         after = before if chosen is None else dict(zip(setups, evaluator.map(
             [(f"{chosen.name}|{s}", chosen.x) for s in setups]), strict=True))
         opened = None
         if chosen is None and settings["open_evaluations"] > 0:
             # what kind of physics is missing: a drag field free where and when it acts
             rates = len(OPEN_DRAG)
-            opened = searched("open", np.r_[x_base, np.zeros(rates)], np.full(rates, OPEN_STEP),
+            opened = searched("open", np.r_[best_base(base, recheck).x, np.zeros(rates)], np.full(rates, OPEN_STEP),
                               np.full(rates, OPEN_BOX[0]), np.full(rates, OPEN_BOX[1]), settings["open_evaluations"],
                               "open")
             logger.info("open drag: loss %.4g px (base %.4g), criterion %+.2f", opened.loss, base.loss,
@@ -285,4 +323,4 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
                 for name, c in comparisons.items()}
 
     return Diagnosis(law, base, found, chosen, before, after, located(before), settings["evidence"], opened,
-                     None if chosen is None else located(after), band)
+                     None if chosen is None else located(after), band, recheck)

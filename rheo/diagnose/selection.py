@@ -5,7 +5,7 @@ A fit's per-frame boundary distances over the fitted frames (of every setup) are
 unknown scale; its Bayesian information criterion is then N log(SSE / N) + k log N (N frames, k fitted parameters). An
 effect is named when its refit lowers the criterion below the base model's by more than ``diagnose.evidence`` (by
 default 6: strong evidence on Kass and Raftery's scale), and the lowest criterion wins unless it is a decoy's;
-otherwise nothing is named.
+otherwise nothing is named. The winner must also beat the base model refitted from the winner's own law.
 The frames held out of every fit judge the choice afterwards. (The residual of a base fit is not noise but the
 simulation's own error, which any extra freedom absorbs in part: at 2, positive evidence, a concealed case with no
 effect named wall adhesion at -2.1.)
@@ -182,3 +182,20 @@ def choose(base: Refit, found: Sequence[Refit], evidence: float) -> Refit | None
     nothing of that effect."""
     best = winner(base, found, evidence)
     return None if best is None or CANDIDATES[best.name].decoy else best
+
+
+def confirmed(base: Refit, found: Sequence[Refit], evidence: float,
+              base_from: Callable[[Refit], Refit]) -> tuple[Refit | None, Refit | None]:
+    """The choice and, where it names an effect, the base model refitted from the named refit's law
+    (``base_from``). The effect stays named only if it also pays against that refit: a refit whose law moved to a
+    valley the base fit missed gains what the law alone gives there, which is no effect's."""
+    chosen = choose(base, found, evidence)
+    if chosen is None:
+        return None, None
+    recheck = base_from(chosen)
+    return choose(best_base(base, recheck), found, evidence), recheck
+
+
+def best_base(base: Refit, recheck: Refit | None) -> Refit:
+    """The base model's best refit: the base fit, or its recheck from a winner's law where that fits better."""
+    return recheck if recheck is not None and recheck.criterion < base.criterion else base

@@ -8,7 +8,14 @@ import pytest
 
 from rheo.diagnose.candidates import BREAKDOWN_STRAINS, CANDIDATES, Law, matched_law
 from rheo.diagnose.dam_break import MIN_LAW_STEP, law_steps
-from rheo.diagnose.selection import Refit, choose, finalists_refitted, information_criterion, profile_refit
+from rheo.diagnose.selection import (
+    Refit,
+    choose,
+    confirmed,
+    finalists_refitted,
+    information_criterion,
+    profile_refit,
+)
 from rheo.experiments.effects import Effects
 from rheo.fit.dam_break import stress_split
 from rheo.fit.search import EvaluationLog
@@ -64,6 +71,33 @@ def test_a_decoy_that_wins_names_nothing():
     assert choose(base, [friction, tilt], EVIDENCE) is None
     assert choose(base, [_refit("density", 0.3, 3)], EVIDENCE) is None
     assert choose(base, [friction, _refit("density", 0.6, 3)], EVIDENCE) is friction
+
+
+def test_an_effect_is_named_only_if_the_base_model_refitted_from_its_law_does_not_come_as_close():
+    """A refit that halves the residual pays against the base fit; if the base model, searched from the refit's law,
+    halves it too, the gain was the law's, and nothing is named. Only a winner is rechecked."""
+    base, thixotropy = _refit("base", 1.0, 2), _refit("thixotropy", 0.5, 3)
+    seen = []
+
+    def base_from(scale: float):
+        def refit(r: Refit) -> Refit:
+            seen.append(r.name)
+            return _refit("base", scale, 2)
+        return refit
+
+    # from the winner's law the base model reaches 0.5 as well: the criterion then favours it by log 8
+    chosen, recheck = confirmed(base, [thixotropy], EVIDENCE, base_from(0.5))
+    assert chosen is None and recheck.loss == 0.5
+    # it reaches 0.9 there: thixotropy still lowers the criterion by 8 log(0.81 / 0.25) - log 8 = 7.3 > 6
+    chosen, recheck = confirmed(base, [thixotropy], EVIDENCE, base_from(0.9))
+    assert chosen is thixotropy and recheck.loss == 0.9
+    assert thixotropy.criterion - recheck.criterion == pytest.approx(8 * math.log(0.25 / 0.81) + math.log(8))
+    # the recheck never makes the base model worse: a recheck that fits worse leaves the base fit the reference
+    assert confirmed(base, [thixotropy], EVIDENCE, base_from(2.0))[0] is thixotropy
+    assert seen == ["thixotropy"] * 3
+    # a refit that does not pay is not rechecked
+    assert confirmed(base, [_refit("air_drag", 0.9, 3)], EVIDENCE, base_from(0.5)) == (None, None)
+    assert seen == ["thixotropy"] * 3
 
 
 def _logged(log: EvaluationLog, loss):

@@ -95,3 +95,18 @@ def test_a_winning_decoy_is_said_not_named():
     # SSE 20 -> 16.2: a drop of 1.2, short of the evidence: the decoy is not mentioned
     short = Diagnosis(Law(n=1.0), base, [tilted(0.9)], None, {}, {}, _lagging_front(5), EVIDENCE).record()
     assert "decoy" not in short["verdict"]
+
+
+def test_a_name_the_recheck_withdrew_is_said_with_both_criteria():
+    base = _base()
+    thixotropy = Refit("thixotropy", np.r_[np.log([23.7, 2.0]), np.log(0.012)], 0.5, 0.5, np.full(FRAMES, 0.5), 3)
+    recheck = Refit("base", np.log([23.5, 2.0]), 0.52, 0.52, np.full(FRAMES, 0.52), 2)
+    # SSE 20 -> 5: thixotropy -24.7 against the base fit; the recheck 20 ln 0.2704 = -26.2 without a parameter more
+    record = Diagnosis(Law(n=1.0), base, [thixotropy], None, {}, {}, _lagging_front(5), EVIDENCE,
+                       recheck=recheck).record()
+    assert record["chosen"] is None and record["recheck"]["delta_criterion"] == pytest.approx(20 * np.log(0.2704))
+    assert record["recheck"]["values"] == pytest.approx({"tau_y_Pa": 23.5, "K_Pa_s_n": 2.0, "n": 1.0})
+    assert record["verdict"].endswith(
+        "; thixotropy (the yield stress falls as the material is sheared) fitted better (criterion -24.7) with a law "
+        "the base fit had missed, and the base model refitted from that law comes within the evidence of it "
+        "(criterion -26.2)")

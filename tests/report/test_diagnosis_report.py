@@ -33,3 +33,15 @@ def test_held_out_frames_that_are_not_there_are_left_out_and_a_named_effect_need
         "<p>No candidate lowers the criterion.</p>")
     assert closest_text(record([candidate("floor_friction", -8.0, 0.03, 0.04)], chosen="floor_friction")) == ""
     assert closest_text(record([])) == ""
+
+
+def test_a_name_the_recheck_withdrew_is_closest_below_the_rechecks_criterion():
+    diagnosis = record([candidate("thixotropy", -24.7, 0.03, 0.04)])
+    diagnosis["recheck"] = {"delta_criterion": -26.2, "loss_px": 0.0104, "held_out_loss_px": 0.031,
+                            "forecast_loss_px": 0.041, "values": {"tau_y_Pa": 23.5}}
+    assert closest_text(diagnosis).startswith("<p>Closest to being named: thixotropy, criterion -24.7 (named below "
+                                              "-32.2); ")
+    html = section(diagnosis)
+    assert "<td>base model, refitted from the winner&#x27;s law</td><td>-26.20</td><td>0.0104</td>" in html
+    assert "and below the base model refitted from its law." in html
+    assert "refitted from" not in section(record([candidate("thixotropy", -2.0, 0.03, 0.04)]))
