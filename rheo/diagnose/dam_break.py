@@ -182,7 +182,7 @@ class Diagnosis:
 
         ranked = sorted(self.candidates, key=lambda r: r.criterion)
         chosen = self.chosen
-        after = chosen or self.base
+        after = chosen or best_base(self.base, self.recheck)  # what the diagnosis ends with
         return {
             "base_model": "Bingham (n = 1)" if self.law.n == 1.0 else
                           "Herschel-Bulkley" if self.law.n is None else f"Herschel-Bulkley, n = {self.law.n}",
@@ -197,7 +197,7 @@ class Diagnosis:
             "chosen": None if chosen is None else chosen.name,
             "verdict": self.verdict(),
             "magnitude": None if chosen is None else self.values(chosen)[chosen.name],
-            "refit": None if chosen is None else fit(chosen),
+            "refit": None if after is self.base else fit(after),
             "recheck": None if self.recheck is None else {
                 **fit(self.recheck), "delta_criterion": self.recheck.criterion - self.base.criterion},
             "open": None if self.open is None else {

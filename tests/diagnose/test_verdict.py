@@ -106,6 +106,9 @@ def test_a_name_the_recheck_withdrew_is_said_with_both_criteria():
                        recheck=recheck).record()
     assert record["chosen"] is None and record["recheck"]["delta_criterion"] == pytest.approx(20 * np.log(0.2704))
     assert record["recheck"]["values"] == pytest.approx({"tau_y_Pa": 23.5, "K_Pa_s_n": 2.0, "n": 1.0})
+    # the diagnosis ends with the base model's better law
+    assert record["refit"]["values"] == record["recheck"]["values"]
+    assert record["loss_before_after_px"]["fitted"] == [1.0, 0.52]
     assert record["verdict"].endswith(
         "; thixotropy (the yield stress falls as the material is sheared) fitted better (criterion -24.7) with a law "
         "the base fit had missed, and the base model refitted from that law comes within the evidence of it "
