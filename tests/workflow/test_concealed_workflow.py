@@ -56,6 +56,9 @@ def test_two_concealed_cases_are_filmed_fitted_diagnosed_and_summed_up(workflow)
         else:  # a second effect, or one no candidate models, may remain: the verdict says where and when
             assert record["open"] is None and "An open drag" not in report
             assert "the mismatch that remains after it" in record["verdict"] and record["mismatch_after"]
+            # named only after the base model, refitted from the winner's law, fell short of it by the evidence
+            named, = (c for c in record["candidates"] if c["effect"] == record["chosen"])
+            assert named["delta_criterion"] < min(0.0, record["recheck"]["delta_criterion"]) - record["evidence"]
     # a tilt of 0 is the base model itself, and every profile starts there: no refit ends worse than the base fit
     tilt, = (c for c in diagnosis["candidates"] if c["effect"] == "gravity_tilt")
     assert tilt["loss_px"] <= diagnosis["base"]["loss_px"]
