@@ -1,0 +1,55 @@
+"""The diagnosis' recheck on the fifth suite's null case c7fa1a139 (a training case): the base model searched from
+the law of the effect that won (thixotropy), as ``rheo.diagnose.dam_break.diagnose`` searches it, with the suite's
+settings. Run from the repository root: ``PYTHONPATH=. python studies/recheck_20261205/run/recheck.py``; the
+evaluations are stored in the study's folder, so a second run replays them."""
+
+import json
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+
+from rheo.config import load_schema, load_yaml, validated
+from rheo.diagnose.candidates import Law
+from rheo.diagnose.dam_break import law_steps, objectives, summary
+from rheo.diagnose.selection import Refit
+from rheo.experiments.rheometer import PARAMETER_KEYS
+from rheo.fit.dam_break import setup_files
+from rheo.fit.parallel import Evaluator
+from rheo.fit.search import EvaluationLog, simplex_search
+
+STUDY = Path(__file__).resolve().parents[1]
+CASE = "c7fa1a139"
+ROOT = STUDY.parent / "suite_20261204" / "results" / "concealed" / CASE
+
+config = validated(load_yaml("config/config.yaml"), load_schema("workflow/schemas/config.schema.yaml"), "config")
+settings = config["diagnose"]
+simulation = {**config["virheometry"]["simulation"], "held_out_every": settings["held_out_every"],
+              "forecast_share": settings["forecast_share"]}
+fit_settings = {**config["concealed"]["fit"], "flow_index": 1.0}
+folders = sorted(p for p in (ROOT / "recording").iterdir() if p.is_dir())
+setups = setup_files([str(f / "setup.json") for f in folders], [str(f / "masks.npz") for f in folders])
+fit = json.loads((ROOT / "fit/params.json").read_text())
+diagnosis = json.loads((ROOT / "diagnosis/diagnosis.json").read_text())
+law = Law(n=1.0, fitted_modulus=fit_settings.get("mu") is not None)
+steps = law_steps(law.names, {n: tuple(fit[PARAMETER_KEYS[n]]["interval"]) for n in law.names}, settings["law_step"])
+box = tuple(np.log([fit_settings[n][i] for n in law.names]) for i in (0, 1))
+winner = min(diagnosis["candidates"], key=lambda c: c["delta_criterion"])
+start = np.log([winner["values"][PARAMETER_KEYS[n]] for n in law.names])
+log = EvaluationLog(STUDY / f"{CASE}.evaluations.json", "recheck")
+with Evaluator(partial(objectives, setups, simulation, {"base": law}), 1) as evaluator:
+
+    def joint(points: list[np.ndarray]) -> list[dict]:
+        return [summary(evaluator.map([(f"base|{s}", x) for s in setups])) for x in points]
+
+    simplex_search(lambda x, phase: log.evaluate_many(joint, [x], phase)[0], start, 0.5 * steps,
+                   settings["refit_evaluations"], "recheck", box=box)
+recheck = Refit.of("base", log.best("recheck"))
+delta = recheck.criterion - diagnosis["base"]["criterion"]
+result = {"case": CASE, "winner": winner["effect"], "winner_delta_criterion": winner["delta_criterion"],
+          "winner_values": winner["values"], "recheck_loss_px": recheck.loss, "recheck_delta_criterion": delta,
+          "recheck_values": dict(zip((PARAMETER_KEYS[n] for n in law.names), np.exp(recheck.x).tolist(), strict=True)),
+          "base_loss_px": diagnosis["base"]["loss_px"], "base_values": diagnosis["base"]["values"],
+          "still_named": winner["delta_criterion"] < min(0.0, delta) - settings["evidence"]}
+(STUDY / f"{CASE}.json").write_text(json.dumps(result, indent=1) + "\n")
+print(json.dumps(result, indent=1))
