@@ -226,9 +226,9 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
     ``settings``: ``candidates`` (names), ``rung_evaluations`` (the law's refit at each rung of a profile),
     ``stress_step`` and ``share_step`` (its initial simplex in the law's stress and the yield stress' share of it,
     log units), ``finalists`` (the candidates of lowest criterion refitted with every parameter free before the
-    choice), ``refit_evaluations`` (each such refit), ``law_step`` (largest initial simplex of the law in those refits,
-    log units; ``law_steps``), ``evidence`` (least drop of the criterion), ``open_evaluations`` (the open drag's
-    refit where no candidate is chosen; 0: none)."""
+    choice), ``refit_evaluations`` (each such refit, and the recheck), ``law_step`` (largest initial simplex of the
+    law in those refits, log units; ``law_steps``), ``evidence`` (least drop of the criterion), ``open_evaluations``
+    (the open drag's refit where no candidate is chosen; 0: none)."""
     records = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:
