@@ -218,6 +218,18 @@ def law_steps(names: tuple[str, ...], intervals: dict[str, tuple[float, float]],
     return np.array([np.clip(0.5 * np.log(intervals[n][1] / intervals[n][0]), MIN_LAW_STEP, largest) for n in names])
 
 
+def recheck_start(candidate: Candidate, x: np.ndarray, law: Law, band: Sequence[float] | None,
+                  law_box: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Where the base model's recheck starts: the material coordinates of ``candidate``'s refit ``x``, with the flow
+    curve matched over the shear-rate ``band`` at the base ``law``'s flow index where the effect changed that index,
+    within ``law_box``."""
+    start = np.asarray(x[:len(law.material_names)], dtype=float)
+    n = candidate.flow_index(candidate.value(float(x[-1])), law.n)
+    if band is not None and law.n is not None and n != law.n:
+        start = np.r_[matched_law(start, n, law.n, band), start[2:]]
+    return np.clip(start, *law_box)
+
+
 def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings: dict, settings: dict,
              base_values: dict[str, float], base_intervals: dict[str, tuple[float, float]], log: EvaluationLog,
              workers: int, on_evaluation: Callable[[str, np.ndarray, float], None] = lambda *_: None) -> Diagnosis:
@@ -289,15 +301,9 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
                         r.criterion - base.criterion)
 
         def base_from(refit: Refit) -> Refit:
-            """The base model searched from ``refit``'s law (its flow curve matched over the band at the base's flow
-            index where the refit changed that index)."""
-            start = np.asarray(refit.x[:len(x_base)])
-            candidate = CANDIDATES[refit.name]
-            n = candidate.flow_index(candidate.value(float(refit.x[-1])), law.n)
-            if band is not None and law.n is not None and n != law.n:
-                start = np.r_[matched_law(start, n, law.n, band), start[2:]]
-            return searched("base", np.clip(start, *law_box), [], [], [], settings["refit_evaluations"],
-                            f"recheck {refit.name}")
+            """The base model searched from ``refit``'s law."""
+            start = recheck_start(CANDIDATES[refit.name], refit.x, law, band, law_box)
+            return searched("base", start, [], [], [], settings["refit_evaluations"], f"recheck {refit.name}")
 
         if settings["refit_evaluations"] > 0:
             chosen, recheck = confirmed(base, found, settings["evidence"], base_from)

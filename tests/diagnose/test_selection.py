@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from rheo.diagnose.candidates import BREAKDOWN_STRAINS, CANDIDATES, Law, matched_law
-from rheo.diagnose.dam_break import MIN_LAW_STEP, law_steps
+from rheo.diagnose.dam_break import MIN_LAW_STEP, law_steps, recheck_start
 from rheo.diagnose.selection import (
     Refit,
     choose,
@@ -201,6 +201,18 @@ def test_matched_law_keeps_the_flow_curve_over_the_band():
     error = (tau_y + K * rates) / (20.0 + 1.5 * np.sqrt(rates)) - 1.0
     assert np.abs(error).max() < 0.03  # a Bingham line through a square-root curve, 20-27 Pa over the band
     assert matched_law(np.log([20.0, 1.5]), 0.5, 0.5, band) == pytest.approx(np.log([20.0, 1.5]))
+
+
+def test_the_recheck_starts_from_the_winners_material_on_the_base_laws_flow_curve():
+    law, box = Law(n=1.0, fitted_modulus=True), (np.log([0.5, 0.1, 30.0]), np.log([100.0, 50.0, 3000.0]))
+    thinning = np.r_[np.log([20.0, 1.5, 200.0]), np.log(0.5)]
+    start = recheck_start(CANDIDATES["shear_thinning"], thinning, law, (0.5, 20.0), box)
+    # the Bingham line through the square-root curve over the band, the shear modulus kept
+    assert start == pytest.approx(np.r_[matched_law(thinning[:2], 0.5, 1.0, (0.5, 20.0)), np.log(200.0)])
+    # an effect that leaves the flow index: the refit's material as it is, within the box
+    sliding = np.r_[np.log([200.0, 1.5, 200.0]), np.log(0.3)]
+    assert recheck_start(CANDIDATES["floor_friction"], sliding, law, (0.5, 20.0), box) == pytest.approx(
+        np.log([100.0, 1.5, 200.0]))
 
 
 def test_a_shear_thinning_profile_starts_each_rung_on_the_last_rungs_flow_curve(tmp_path):

@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from rheo.config import load_schema, load_yaml, validated
-from rheo.diagnose.candidates import Law
-from rheo.diagnose.dam_break import law_steps, objectives, summary
+from rheo.diagnose.candidates import CANDIDATES, Law
+from rheo.diagnose.dam_break import law_steps, objectives, recheck_start, summary
 from rheo.diagnose.selection import Refit
 from rheo.experiments.rheometer import PARAMETER_KEYS
 from rheo.fit.dam_break import setup_files
@@ -35,7 +35,10 @@ law = Law(n=1.0, fitted_modulus=fit_settings.get("mu") is not None)
 steps = law_steps(law.names, {n: tuple(fit[PARAMETER_KEYS[n]]["interval"]) for n in law.names}, settings["law_step"])
 box = tuple(np.log([fit_settings[n][i] for n in law.names]) for i in (0, 1))
 winner = min(diagnosis["candidates"], key=lambda c: c["delta_criterion"])
-start = np.log([winner["values"][PARAMETER_KEYS[n]] for n in law.names])
+effect = CANDIDATES[winner["effect"]]
+winner_x = np.r_[np.log([winner["values"][PARAMETER_KEYS[n]] for n in law.names]),
+                 effect.coordinate(winner["values"][effect.name])]
+start = recheck_start(effect, winner_x, law, fit["shear_rate_band_per_s"], box)
 log = EvaluationLog(STUDY / f"{CASE}.evaluations.json", "recheck")
 with Evaluator(partial(objectives, setups, simulation, {"base": law}), 1) as evaluator:
 
