@@ -27,7 +27,7 @@ from rheo.fit.dam_break import from_stress_split, stress_split
 from rheo.fit.search import simplex_search
 
 T = TypeVar("T")
-STOP_RISE = 1.25  # a profile stops climbing once a rung's loss exceeds the lowest so far by this factor
+LINE_EXPANSIONS = 5  # a rung's line search along the stress (and the modulus) doubles its step at most this often
 
 
 def information_criterion(distances: np.ndarray, parameters: int) -> float:
@@ -74,23 +74,23 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
                   law_box: tuple[np.ndarray, np.ndarray], split_step: tuple[float, float], rung_evaluations: int,
                   band: tuple[float, float] | None = None, flow_index: float | None = 1.0) -> Refit:
     """The candidate's best fit along its profile: from the base fit with the effect at its null (or the nearest the box
-    allows, so that the refit, a model holding the base one, ends no worse), the effect climbs its rungs of magnitude
-    and the law is refitted at each by a short Nelder-Mead search (``rung_evaluations``) in the law's stress at the
-    middle of the shear-rate ``band`` and the yield stress' share of it (``stress_split``; initial simplex
-    ``split_step``, log units) from the best of its start and the start's stress a step down and up: the silhouettes
-    fix that stress tightly and the share loosely, so an effect shifts the stress a little either way and moves the
-    law along that valley, often far (walls adhering with 20 Pa, which the base fit answered with tau_y 14.3 and K 4.5
-    Pa s, ask for 20 and 1.5). ``flow_index``: the law's n, or None where ``base_x`` holds log n (after log K; shear
-    thinning's rung gives its own); what follows the law in ``base_x`` (the shear modulus, where fitted) is searched
-    beside it. An effect the base fit compensated with a very different law (a slow gate with a strong material, say)
-    needs that law moved far: each rung starts from the law extrapolated from the two before (continuation along the
-    valley), unless the previous rung's law or the base fit's does better there (where the valley turns: a sliding floor
-    first lowers the yield stress that held the material back, then, once the material slides, needs it back). An effect
-    that changes what the law's parameters mean also starts from the laws ``Candidate.rung_starts`` gives (shear
-    thinning: the last rung's flow curve over the base flow's shear-rate ``band``; thixotropy: the base fit's yield
-    stress with its breakdown restored). A branch stops climbing once a rung's loss exceeds the best so far by
-    ``STOP_RISE``; then a rung halfway (on the search coordinate) between the branch's best and the next one out is
-    refitted too, started from both their laws."""
+    allows, so that the refit, a model holding the base one, ends no worse), the effect climbs every rung of its
+    ladder and the law is refitted at each in the law's stress at the middle of the shear-rate ``band`` and the yield
+    stress' share of it (``stress_split``), then the coordinates after the law (the shear modulus, where fitted):
+    a line search along each (``line_search``; first steps ``split_step``, the stress' for the rest, log units), then
+    a short Nelder-Mead search (``rung_evaluations``). The silhouettes fix that stress tightly and the share loosely,
+    so an effect shifts the stress a little either way and moves the law along that valley, often far (walls
+    adhering with 20 Pa, which the base fit answered with tau_y 14.3 and K 4.5 Pa s, ask for 20 and 1.5); where it
+    lets the material slide, the law that fits is an order of magnitude stronger and stiffer. ``flow_index``: the
+    law's n, or None where ``base_x`` holds log n (after log K; shear thinning's rung gives its own). Each rung
+    starts from the law extrapolated from the two before (continuation along the valley), unless the previous rung's
+    law or the base fit's does better there (where the valley turns: a sliding floor first lowers the yield stress
+    that held the material back, then, once the material slides, needs it back). An effect that changes what the
+    law's parameters mean also starts from the laws ``Candidate.rung_starts`` gives (shear thinning: the last rung's
+    flow curve over the base flow's shear-rate ``band``; thixotropy: the base fit's yield stress with its breakdown
+    restored). Rungs that fit worse do not stop the climb: a sliding floor's loss rises while the floor barely holds
+    and falls again once the material slides as recorded. Then a rung halfway (on the search coordinate) between the
+    branch's best and the next one out is refitted too, started from both their laws."""
     phase = f"refit {candidate.name}"
     rate = 1.0 if band is None else math.sqrt(band[0] * band[1])
 
@@ -112,9 +112,9 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
         start = min((np.clip(x, *law_box) for x in starts), key=lambda x: at_rung(x, phase))
         z = np.r_[stress_split(np.r_[start[:2], math.log(n_of(start))], rate), start[2:]]
         step = np.r_[split_step, np.full(len(start) - 2, split_step[0])]
-        # the stress is fixed tightly and an effect shifts it either way: bracket it a step down and up first
-        shift = np.r_[split_step[0], np.zeros(len(z) - 1)]
-        z = min((z, z - shift, z + shift), key=lambda point: at_rung(from_split(point), phase))
+        # the stress is fixed tightly and an effect shifts it either way, far where the material slides
+        for axis in range(len(z)):
+            z = line_search(lambda point: at_rung(from_split(point), phase), z, axis, step[axis])
         simplex_search(lambda z, ph: at_rung(from_split(z), ph), z, step, rung_evaluations, phase)
         return min(found, key=lambda f: f[0])
 
@@ -123,10 +123,10 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
         return candidate.rung_starts(fitted[1], candidate.value(fitted[0]), candidate.value(rung), band, base_x)
 
     null = candidate.nearest_null
-    lowest = evaluate(np.r_[base_x, null], phase)
-    profile = [(candidate.value(null), lowest)]
+    null_loss = evaluate(np.r_[base_x, null], phase)
+    profile = [(candidate.value(null), null_loss)]
     for branch in candidate.rungs:
-        path = [(null, base_x, lowest)]
+        path = [(null, base_x, null_loss)]
         for value in branch:
             rung = candidate.coordinate(value)
             starts = [path[-1][1]]
@@ -136,9 +136,6 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
             loss, law = refit_at(rung, starts + effect_starts(path[-1], rung))
             path.append((rung, law, loss))
             profile.append((value, loss))
-            if loss > STOP_RISE * lowest:
-                break
-            lowest = min(lowest, loss)
         # the rungs are a factor 3 apart: between the branch's best and the next one out, which lost more
         k = min(range(len(path)), key=lambda i: path[i][2])
         if k + 1 < len(path):
@@ -146,8 +143,37 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
             middle = 0.5 * (c0 + c1)
             loss, _ = refit_at(middle, [x0, x1, *effect_starts(path[k], middle)])
             profile.append((candidate.value(middle), loss))
-            lowest = min(lowest, loss)
     return dataclasses.replace(Refit.of(candidate.name, best(phase)), profile=tuple(sorted(profile)))
+
+
+def line_search(loss: Callable[[np.ndarray], float], z: np.ndarray, axis: int, step: float,
+                expansions: int = LINE_EXPANSIONS) -> np.ndarray:
+    """The lowest point found along coordinate ``axis`` from ``z``: a ``step`` either way, then, in the direction
+    that fitted better, steps doubling while the ``loss`` falls (at most ``expansions`` of them), then the lowest
+    point of the parabola through the best point and its neighbours either side."""
+    along: dict[float, float] = {}
+
+    def probe(t: float) -> float:
+        along[t] = loss(np.r_[z[:axis], z[axis] + t, z[axis + 1:]])
+        return along[t]
+
+    best, move = 0.0, step
+    probe(best)
+    sign = -1.0 if probe(-step) < probe(step) else 1.0
+    doublings = 0
+    while along[best + sign * move] < along[best]:
+        best += sign * move
+        if doublings == expansions:
+            return np.r_[z[:axis], z[axis] + best, z[axis + 1:]]
+        move, doublings = 2.0 * move, doublings + 1
+        probe(best + sign * move)
+    left, right = max(t for t in along if t < best), min(t for t in along if t > best)
+    rise_left, rise_right = along[left] - along[best], along[right] - along[best]
+    vertex = best + 0.5 * ((right - best) ** 2 * rise_left - (best - left) ** 2 * rise_right) / (
+        (best - left) * rise_right + (right - best) * rise_left)
+    if probe(vertex) < along[best]:
+        best = vertex
+    return np.r_[z[:axis], z[axis] + best, z[axis + 1:]]
 
 
 def refits(items: Sequence[T], search: Callable[[T], Refit], side_by_side: int) -> list[Refit]:

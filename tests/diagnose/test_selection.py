@@ -9,11 +9,13 @@ import pytest
 from rheo.diagnose.candidates import BREAKDOWN_STRAINS, CANDIDATES, Law, matched_law
 from rheo.diagnose.dam_break import MIN_LAW_STEP, law_steps, recheck_start
 from rheo.diagnose.selection import (
+    LINE_EXPANSIONS,
     Refit,
     choose,
     confirmed,
     finalists_refitted,
     information_criterion,
+    line_search,
     profile_refit,
 )
 from rheo.experiments.effects import Effects
@@ -148,8 +150,9 @@ def test_a_profile_follows_the_law_an_effect_needs_far_from_the_base_fit(tmp_pat
     assert refit.loss < 0.015 < loss(np.r_[base_x, null]) / 20
     assert refit.held_out_loss == pytest.approx(2 * refit.loss) and refit.parameters == 3
     rungs = len(candidate.rungs[0])
-    # a short search a rung, three starts from the second, and one rung halfway to the next (two starts)
-    assert len(log.records) <= 1 + rungs * 5 + (rungs - 1) * 3 + 7
+    # a rung: three starts (one at the first), a line search along the stress and one along the share, a short
+    # simplex; and one rung halfway to the next
+    assert len(log.records) <= 1 + (rungs + 1) * (3 + 2 * (3 + LINE_EXPANSIONS + 1) + 5)
 
 
 def test_a_profile_searches_a_fitted_shear_modulus_beside_the_law(tmp_path):
@@ -170,6 +173,54 @@ def test_a_profile_searches_a_fitted_shear_modulus_beside_the_law(tmp_path):
     assert candidate.value(refit.x[3]) == pytest.approx(0.3)
     assert abs(refit.x[2] - math.log(600.0)) < 0.5 * math.log(2.0)  # mu moved most of the way from 300 Pa
     assert refit.loss < loss(np.r_[base_x[:2], base_x[2], target])
+
+
+def test_a_line_search_doubles_its_step_while_the_loss_falls():
+    """Along one coordinate of a quadratic bowl: from 2 units away, steps of 0.1 doubling reach 1.5 in four
+    doublings and stop where the next step (3.1) lands further off, and the parabola through 0.7, 1.5 and 3.1 finds
+    the bottom; the other coordinate stays; a start at the bottom stays; a bottom 100 units away is approached no
+    further than five doublings allow (6.3)."""
+    calls = []
+
+    def bowl(bottom: float):
+        def loss(z: np.ndarray) -> float:
+            calls.append(z)
+            return float((z[1] - bottom) ** 2 + z[0] ** 2)
+        return loss
+
+    assert line_search(bowl(2.0), np.array([0.3, 0.0]), 1, 0.1) == pytest.approx([0.3, 2.0])
+    assert len(calls) == 3 + 4 + 1
+    assert line_search(bowl(0.0), np.array([0.3, 0.0]), 1, 0.1) == pytest.approx([0.3, 0.0])
+    farthest = 0.1 * (2 ** (LINE_EXPANSIONS + 1) - 1)
+    assert line_search(bowl(-100.0), np.zeros(2), 1, 0.1) == pytest.approx([0.0, -farthest])
+
+
+def test_a_floor_friction_profile_crosses_the_rungs_where_the_floor_barely_holds(tmp_path):
+    """A sticky-floor fit (coefficient 5) compensated a floor of 0.18 with a soft, weak material (the fifth suite's
+    floor-friction cases: the modulus at its lower bound, the yield stress a tenth of the truth's). The loss rises
+    while the floor barely holds (0.5 and 0.3 fit worse than the base fit) and falls six-fold at the true
+    coefficient, where the law that fits is an order of magnitude stronger (log stress +2.5) and stiffer (mu 700
+    Pa). The profile climbs past the rise, and each rung's line searches move the law that far."""
+    candidate = CANDIDATES["floor_friction"]
+    base_x = np.log([1.4, 0.9, 30.0])
+    box = (np.r_[LAW_BOX[0], np.log(30.0)], np.r_[LAW_BOX[1], np.log(3000.0)])
+    coefficients = np.log([0.1, 0.18, 0.3, 0.5, 1.0, 2.0, 5.0])
+    floor = [0.3, 0.013, 0.2, 0.11, 0.087, 0.081, 0.089]
+    sliding = candidate.coordinate(0.5)
+
+    def valley(c: float) -> np.ndarray:
+        along = min(max((sliding - c) / (sliding - candidate.coordinate(0.18)), 0.0), 1.0)
+        return np.r_[_split(base_x) + np.array([2.5, 0.0]) * along, base_x[2] + math.log(700.0 / 30.0) * along]
+
+    def loss(p: np.ndarray) -> float:
+        offset = np.r_[_split(p), p[2]] - valley(p[3])
+        return float(np.interp(p[3], coefficients, floor)) + 10 * offset[0] ** 2 + 0.05 * offset[1] ** 2 + (
+            offset[2] ** 2)
+
+    log = EvaluationLog(tmp_path / "log.json", "key")
+    refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, box, SPLIT_STEP, 5)
+    assert candidate.value(refit.x[3]) == pytest.approx(0.18) and refit.loss < 0.03
+    assert abs(_split(refit.x)[0] - valley(refit.x[3])[0]) < 0.05 and abs(refit.x[2] - math.log(700.0)) < 0.15
 
 
 def test_a_profile_follows_a_valley_that_turns_back_to_the_base_law(tmp_path):
@@ -242,8 +293,8 @@ def test_a_shear_thinning_profile_starts_each_rung_on_the_last_rungs_flow_curve(
 
 
 def test_a_profile_refits_halfway_between_its_best_rung_and_the_next(tmp_path):
-    """Walls adhering with 8 Pa, between the rungs of 5 and 15 Pa: the profile stops after 15 Pa, which loses more
-    than 5 Pa, and the rung halfway between them (8.7 Pa) comes within 10 % of the truth."""
+    """Walls adhering with 8 Pa, between the rungs of 5 and 15 Pa: the profile climbs every rung, and the rung
+    halfway between the best (5 Pa) and the next one out (8.7 Pa) comes within 10 % of the truth."""
     candidate = CANDIDATES["wall_adhesion"]
     base_x = np.log([8.0, 2.5])
 
@@ -252,7 +303,7 @@ def test_a_profile_refits_halfway_between_its_best_rung_and_the_next(tmp_path):
 
     log = EvaluationLog(tmp_path / "log.json", "key")
     refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, SPLIT_STEP, 5)
-    assert [value for value, _ in refit.profile] == pytest.approx([1.0, 5.0, math.sqrt(75.0), 15.0])
+    assert [value for value, _ in refit.profile] == pytest.approx([1.0, 5.0, math.sqrt(75.0), 15.0, 45.0, 135.0])
     assert candidate.value(refit.x[2]) == pytest.approx(math.sqrt(75.0)) and refit.loss < 0.03  # 5 Pa: 0.45
 
 
@@ -319,8 +370,7 @@ def test_a_thixotropy_profile_starts_from_the_intact_materials_yield_stress(tmp_
 @pytest.mark.parametrize("name", ["shear_thinning", "thixotropy", "floor_friction", "gravity_tilt"])
 def test_a_refit_is_never_worse_than_the_base_fit_with_the_effect_at_its_null(tmp_path, name):
     """A loss that any amount of the effect worsens, on a rough law landscape whose best lies at the base fit: the
-    profile stops after its first rung (on each side) and keeps the effect's nearest null value and the base fit's
-    loss."""
+    profile climbs every rung (on each side) and keeps the effect's nearest null value and the base fit's loss."""
     candidate = CANDIDATES[name]
     base_x = np.log([8.0, 2.5])
 
@@ -331,9 +381,10 @@ def test_a_refit_is_never_worse_than_the_base_fit_with_the_effect_at_its_null(tm
     log = EvaluationLog(tmp_path / "log.json", "key")
     refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, SPLIT_STEP, 5)
     assert refit.loss == pytest.approx(0.02) and refit.x[2] == candidate.nearest_null
-    # a rung and one halfway to it, each branch, and the candidate's own starts at both
+    # each rung and one halfway to the first: three starts and the candidate's own, the line search, the simplex
     extra = len(candidate.rung_starts(base_x, 1.0, 1.0, None, base_x))
-    assert len(log.records) <= 1 + (5 + 7 + 2 * extra) * len(candidate.rungs)
+    per_rung = 3 + extra + 3 + LINE_EXPANSIONS + 5
+    assert len(log.records) <= 1 + per_rung * sum(len(branch) + 1 for branch in candidate.rungs)
 
 
 def test_candidates_at_their_null_values_give_back_the_base_law_and_effects():
