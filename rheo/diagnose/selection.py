@@ -27,7 +27,7 @@ from rheo.fit.dam_break import from_stress_split, stress_split
 from rheo.fit.search import simplex_search
 
 T = TypeVar("T")
-LINE_EXPANSIONS = 5  # a rung's line search along the stress (and the modulus) doubles its step at most this often
+LINE_EXPANSIONS = 5  # a rung's line search doubles its step at most this often
 
 
 def information_criterion(distances: np.ndarray, parameters: int) -> float:
@@ -169,10 +169,11 @@ def line_search(loss: Callable[[np.ndarray], float], z: np.ndarray, axis: int, s
         probe(best + sign * move)
     left, right = max(t for t in along if t < best), min(t for t in along if t > best)
     rise_left, rise_right = along[left] - along[best], along[right] - along[best]
-    vertex = best + 0.5 * ((right - best) ** 2 * rise_left - (best - left) ** 2 * rise_right) / (
-        (best - left) * rise_right + (right - best) * rise_left)
-    if probe(vertex) < along[best]:
-        best = vertex
+    curvature = (best - left) * rise_right + (right - best) * rise_left
+    if curvature > 0.0:  # not flat where the loss ignores the coordinate
+        vertex = best + 0.5 * ((right - best) ** 2 * rise_left - (best - left) ** 2 * rise_right) / curvature
+        if probe(vertex) < along[best]:
+            best = vertex
     return np.r_[z[:axis], z[axis] + best, z[axis + 1:]]
 
 

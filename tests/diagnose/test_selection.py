@@ -179,7 +179,7 @@ def test_a_line_search_doubles_its_step_while_the_loss_falls():
     """Along one coordinate of a quadratic bowl: from 2 units away, steps of 0.1 doubling reach 1.5 in four
     doublings and stop where the next step (3.1) lands further off, and the parabola through 0.7, 1.5 and 3.1 finds
     the bottom; the other coordinate stays; a start at the bottom stays; a bottom 100 units away is approached no
-    further than five doublings allow (6.3)."""
+    further than five doublings allow (6.3); a loss that ignores the coordinate leaves the start."""
     calls = []
 
     def bowl(bottom: float):
@@ -193,6 +193,8 @@ def test_a_line_search_doubles_its_step_while_the_loss_falls():
     assert line_search(bowl(0.0), np.array([0.3, 0.0]), 1, 0.1) == pytest.approx([0.3, 0.0])
     farthest = 0.1 * (2 ** (LINE_EXPANSIONS + 1) - 1)
     assert line_search(bowl(-100.0), np.zeros(2), 1, 0.1) == pytest.approx([0.0, -farthest])
+    assert line_search(bowl(0.0), np.array([0.3, 0.0]), 0, 0.1) == pytest.approx([0.0, 0.0])
+    assert line_search(lambda z: 1.0, np.array([0.3, 0.0]), 1, 0.1) == pytest.approx([0.3, 0.0])
 
 
 def test_a_floor_friction_profile_crosses_the_rungs_where_the_floor_barely_holds(tmp_path):
