@@ -1,8 +1,9 @@
 """One candidate's profile (``rheo.diagnose.selection.profile_refit``, as the diagnosis runs it, with the default
-settings) on a stored suite's case, from the case's base fit (its shear modulus fitted where the fit did so, else
-held at the simulation's). Run from the repository root:
-``PYTHONPATH=. python studies/profile_ladder_20261205/run/ladder.py <suite study> <case> <candidate>``; the
-evaluations are stored in the study's folder, so a second run replays them."""
+settings) from a stored base fit: a concealed case's (``concealed/<case>``) or a real material's Bingham fit
+(``virheometry/<material>``), its shear modulus fitted where the fit did so, else held at the simulation's. Run from
+the repository root: ``PYTHONPATH=. python studies/profile_ladder_20261205/run/ladder.py <study> <target>
+<candidate>``, the target's results read from the study; the evaluations are stored in this study's folder, so a
+second run replays them."""
 
 import json
 import sys
@@ -21,22 +22,27 @@ from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog
 
 STUDY = Path(__file__).resolve().parents[1]
-suite, case, name = sys.argv[1:4]
-root = STUDY.parent / suite / "results" / "concealed" / case
+study, target, name = sys.argv[1:4]
+results = STUDY.parent / study / "results"
+kind, label = target.split("/")
 
 config = validated(load_yaml("config/config.yaml"), load_schema("workflow/schemas/config.schema.yaml"), "config")
 settings = config["diagnose"]
 simulation = {**config["virheometry"]["simulation"], "held_out_every": settings["held_out_every"],
               "forecast_share": settings["forecast_share"]}
-fit_settings = {**config["concealed"]["fit"], "flow_index": 1.0}
-folders = sorted(p for p in (root / "recording").iterdir() if p.is_dir())
+fit_settings = {**config[kind]["fit"], "flow_index": 1.0}
+if kind == "concealed":
+    folders = sorted(p for p in (results / target / "recording").iterdir() if p.is_dir())
+    fit = json.loads((results / target / "fit/params.json").read_text())
+else:
+    folders = sorted((results / "virheometry/setups").glob(f"ref_{label}_*"))
+    fit = json.loads((results / target / "fit_bingham/params.json").read_text())
 setups = setup_files([str(f / "setup.json") for f in folders], [str(f / "masks.npz") for f in folders])
-fit = json.loads((root / "fit/params.json").read_text())
 base = Law(n=1.0, fitted_modulus="mu_Pa" in fit)
 candidate = CANDIDATES[name]
 base_x = np.log([fit[PARAMETER_KEYS[n]]["value"] for n in base.names])
 box = tuple(np.log([fit_settings[n][i] for n in base.names]) for i in (0, 1))
-log = EvaluationLog(STUDY / f"{case}_{name}.evaluations.json", "profile")
+log = EvaluationLog(STUDY / f"{label}_{name}.evaluations.json", "profile")
 laws = {name: Law(n=1.0, fitted_modulus=base.fitted_modulus, candidate=candidate)}
 with Evaluator(partial(objectives, setups, simulation, laws), len(setups)) as evaluator:
 
@@ -51,10 +57,11 @@ with Evaluator(partial(objectives, setups, simulation, laws), len(setups)) as ev
                           tuple(fit["shear_rate_band_per_s"]), 1.0)
 best = Refit.of(name, log.best(f"refit {name}"))
 values = dict(zip((PARAMETER_KEYS[n] for n in base.names), np.exp(best.x[:-1]).tolist(), strict=True))
-result = {"case": case, "candidate": name, "evaluations": len(log.seen()[1]), "loss_px": best.loss,
+result = {"target": target, "candidate": name, "evaluations": len(log.seen()[1]), "loss_px": best.loss,
           "values": {**values, name: candidate.value(float(best.x[-1]))},
-          "profile": [list(p) for p in refit.profile],
-          "truth": json.loads((root / "truth.json").read_text()),
-          "oracle_loss_px": json.loads((root / "oracle.json").read_text())["loss_px"]}
-(STUDY / f"{case}_{name}.json").write_text(json.dumps(result, indent=1) + "\n")
+          "profile": [list(p) for p in refit.profile]}
+if kind == "concealed":
+    result |= {"truth": json.loads((results / target / "truth.json").read_text()),
+               "oracle_loss_px": json.loads((results / target / "oracle.json").read_text())["loss_px"]}
+(STUDY / f"{label}_{name}.json").write_text(json.dumps(result, indent=1) + "\n")
 print(json.dumps(result, indent=1))
