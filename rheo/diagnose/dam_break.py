@@ -233,14 +233,14 @@ def recheck_start(candidate: Candidate, x: np.ndarray, law: Law, band: Sequence[
 def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings: dict, settings: dict,
              base_values: dict[str, float], base_intervals: dict[str, tuple[float, float]], log: EvaluationLog,
              workers: int, on_evaluation: Callable[[str, np.ndarray, float], None] = lambda *_: None) -> Diagnosis:
-    """Diagnose the fit ``base_values`` (tau_y, K, n; tolerance intervals ``base_intervals``) of the ``setups`` (name:
-    (setup.json, masks.npz)), fitted with ``fit_settings`` (its boxes, its fixed flow index) on ``simulation``'s grid.
-    ``settings``: ``candidates`` (names), ``rung_evaluations`` (the law's refit at each rung of a profile),
-    ``stress_step`` and ``share_step`` (its initial simplex in the law's stress and the yield stress' share of it,
-    log units), ``finalists`` (the candidates of lowest criterion refitted with every parameter free before the
-    choice), ``refit_evaluations`` (each such refit, and the recheck), ``law_step`` (largest initial simplex of the
-    law in those refits, log units; ``law_steps``), ``evidence`` (least drop of the criterion), ``open_evaluations``
-    (the open drag's refit where no candidate is chosen; 0: none)."""
+    """Diagnose the fit ``base_values`` (tau_y, K, n; tolerance intervals ``base_intervals``) of the ``setups``
+    (name: (setup.json, masks.npz)), fitted with ``fit_settings`` (its boxes, its fixed flow index) on
+    ``simulation``'s grid. ``settings``: ``candidates`` (names), ``rung_evaluations`` (the law's refit at each rung
+    of a profile), ``stress_step`` and ``share_step`` (its line searches' first steps and initial simplex in the
+    law's stress and the yield stress' share of it, log units), ``finalists`` (the candidates of lowest criterion
+    refitted with every parameter free before the choice), ``refit_evaluations`` (each such refit, and the recheck),
+    ``law_step`` (largest initial simplex of the law in those refits, log units; ``law_steps``), ``evidence`` (least
+    drop of the criterion), ``open_evaluations`` (the open drag's refit where no candidate is chosen; 0: none)."""
     records = {}
     for name, (record, masks) in setups.items():
         with open(record) as f:

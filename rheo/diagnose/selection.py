@@ -24,10 +24,9 @@ import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES, Candidate
 from rheo.fit.dam_break import from_stress_split, stress_split
-from rheo.fit.search import simplex_search
+from rheo.fit.search import line_search, simplex_search
 
 T = TypeVar("T")
-LINE_EXPANSIONS = 5  # a rung's line search doubles its step at most this often
 
 
 def information_criterion(distances: np.ndarray, parameters: int) -> float:
@@ -144,37 +143,6 @@ def profile_refit(candidate: Candidate, evaluate: Evaluate, best: Best, base_x: 
             loss, _ = refit_at(middle, [x0, x1, *effect_starts(path[k], middle)])
             profile.append((candidate.value(middle), loss))
     return dataclasses.replace(Refit.of(candidate.name, best(phase)), profile=tuple(sorted(profile)))
-
-
-def line_search(loss: Callable[[np.ndarray], float], z: np.ndarray, axis: int, step: float,
-                expansions: int = LINE_EXPANSIONS) -> np.ndarray:
-    """The lowest point found along coordinate ``axis`` from ``z``: a ``step`` either way, then, in the direction
-    that fitted better, steps doubling while the ``loss`` falls (at most ``expansions`` of them), then the lowest
-    point of the parabola through the best point and its neighbours either side."""
-    along: dict[float, float] = {}
-
-    def probe(t: float) -> float:
-        along[t] = loss(np.r_[z[:axis], z[axis] + t, z[axis + 1:]])
-        return along[t]
-
-    best, move = 0.0, step
-    probe(best)
-    sign = -1.0 if probe(-step) < probe(step) else 1.0
-    doublings = 0
-    while along[best + sign * move] < along[best]:
-        best += sign * move
-        if doublings == expansions:
-            return np.r_[z[:axis], z[axis] + best, z[axis + 1:]]
-        move, doublings = 2.0 * move, doublings + 1
-        probe(best + sign * move)
-    left, right = max(t for t in along if t < best), min(t for t in along if t > best)
-    rise_left, rise_right = along[left] - along[best], along[right] - along[best]
-    curvature = (best - left) * rise_right + (right - best) * rise_left
-    if curvature > 0.0:  # not flat where the loss ignores the coordinate
-        vertex = best + 0.5 * ((right - best) ** 2 * rise_left - (best - left) ** 2 * rise_right) / curvature
-        if probe(vertex) < along[best]:
-            best = vertex
-    return np.r_[z[:axis], z[axis] + best, z[axis + 1:]]
 
 
 def refits(items: Sequence[T], search: Callable[[T], Refit], side_by_side: int) -> list[Refit]:

@@ -47,6 +47,8 @@ FLAT = 0.25
 END_STEPS = 8
 # then a closed end is placed to within 1 / 2**END_HALVINGS of a step by bisection
 END_HALVINGS = 2
+# a line search doubles its step at most this often
+LINE_EXPANSIONS = 5
 
 
 class SilhouetteTarget:
@@ -192,6 +194,37 @@ def simplex_search(evaluate: Evaluate, start: np.ndarray, step: float | np.ndarr
                       options={"initial_simplex": simplex, "maxfev": evaluations, "xatol": tolerance,
                                "fatol": 1e-9})
     return result.x, float(result.fun)
+
+
+def line_search(loss: Callable[[np.ndarray], float], z: np.ndarray, axis: int, step: float,
+                expansions: int = LINE_EXPANSIONS) -> np.ndarray:
+    """The lowest point found along coordinate ``axis`` from ``z``: a ``step`` either way, then, in the direction
+    that fitted better, steps doubling while the ``loss`` falls (at most ``expansions`` of them), then the lowest
+    point of the parabola through the best point and its neighbours either side."""
+    along: dict[float, float] = {}
+
+    def probe(t: float) -> float:
+        along[t] = loss(np.r_[z[:axis], z[axis] + t, z[axis + 1:]])
+        return along[t]
+
+    best, move = 0.0, step
+    probe(best)
+    sign = -1.0 if probe(-step) < probe(step) else 1.0
+    doublings = 0
+    while along[best + sign * move] < along[best]:
+        best += sign * move
+        if doublings == expansions:
+            return np.r_[z[:axis], z[axis] + best, z[axis + 1:]]
+        move, doublings = 2.0 * move, doublings + 1
+        probe(best + sign * move)
+    left, right = max(t for t in along if t < best), min(t for t in along if t > best)
+    rise_left, rise_right = along[left] - along[best], along[right] - along[best]
+    curvature = (best - left) * rise_right + (right - best) * rise_left
+    if curvature > 0.0:  # not flat where the loss ignores the coordinate
+        vertex = best + 0.5 * ((right - best) ** 2 * rise_left - (best - left) ** 2 * rise_right) / curvature
+        if probe(vertex) < along[best]:
+            best = vertex
+    return np.r_[z[:axis], z[axis] + best, z[axis + 1:]]
 
 
 def start_searches(evaluate: Evaluate, starts: Sequence[np.ndarray], step: float, evaluations: int,

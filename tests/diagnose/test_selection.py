@@ -9,18 +9,16 @@ import pytest
 from rheo.diagnose.candidates import BREAKDOWN_STRAINS, CANDIDATES, Law, matched_law
 from rheo.diagnose.dam_break import MIN_LAW_STEP, law_steps, recheck_start
 from rheo.diagnose.selection import (
-    LINE_EXPANSIONS,
     Refit,
     choose,
     confirmed,
     finalists_refitted,
     information_criterion,
-    line_search,
     profile_refit,
 )
 from rheo.experiments.effects import Effects
 from rheo.fit.dam_break import stress_split
-from rheo.fit.search import EvaluationLog
+from rheo.fit.search import LINE_EXPANSIONS, EvaluationLog, line_search
 
 EVIDENCE = 6.0  # diagnose.evidence's default
 SPLIT_STEP = (0.1, 1.0)  # diagnose.stress_step and share_step's defaults
