@@ -111,10 +111,10 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
     # null: a sticky floor (an infinite coefficient); the box reaches from a floor that barely holds to nearly sticky
     Candidate("floor_friction", "floor friction (the material slides on the floor)", "Coulomb coefficient", "",
               math.inf, 0.05, 5.0, ((2.0, 1.0, 0.5, 0.3, 0.18, 0.1),)),
-    # null: sticky floor and walls (an infinite coefficient); across the box a wall stress of 10 Pa makes the
-    # material slip at 0.1 mm/s to 1 m/s
-    Candidate("wall_slip", "wall slip (the material slides on the floor and walls, Navier's law)", "slip coefficient",
-              "Pa s/m", math.inf, 10.0, 1.0e5, ((1.0e4, 3.0e3, 1.0e3, 300.0, 100.0),)),
+    # null: the setup's sticky floor and walls (an infinite coefficient); across the box a wall stress of 10 Pa
+    # makes the material slip at 0.1 mm/s to 1 m/s
+    Candidate("wall_slip", "wall slip (the material slides on a sticky floor and walls, Navier's law)",
+              "slip coefficient", "Pa s/m", math.inf, 10.0, 1.0e5, ((1.0e4, 3.0e3, 1.0e3, 300.0, 100.0),)),
     Candidate("wall_adhesion", "wall adhesion (smooth walls hold the material)", "adhesion", "Pa", 0.0, 1.0, 1000.0,
               ((5.0, 15.0, 45.0, 135.0),)),
     Candidate("gate_lift", "a gate lifted at a finite speed", "lift time", "s", 0.0, 0.005, 0.3,

@@ -84,9 +84,14 @@ class DamBreakScene:
     def colliders(self, effects: Effects | None = None) -> list:
         """The floor, every wall above it as a box (the file's first box is the floor slab), and a lifted gate."""
         effects = effects or Effects()
-        navier = {} if effects.wall_slip is None else {"contact": "navier", "friction": effects.wall_slip}
+
+        def held(contact: str) -> dict:  # a sticky contact slips by Navier's law where the effects say so
+            if contact != "sticky" or effects.wall_slip is None:
+                return {"contact": contact}
+            return {"contact": "navier", "friction": effects.wall_slip}
+
         floor_contact = next((w.contact for w in self.setup.walls if w.high[1] <= 0.0), "sticky")
-        floor = Floor(height=0.0, **({"contact": floor_contact} | navier)) if effects.floor_friction is None else \
+        floor = Floor(height=0.0, **held(floor_contact)) if effects.floor_friction is None else \
             Floor(height=0.0, contact="friction", friction=effects.floor_friction)
         cuboid_low, cuboid_high = self.setup.cuboid
         boxes = []
@@ -98,7 +103,7 @@ class DamBreakScene:
             low = np.where(behind, np.minimum(low, high - thick), low) - FACE_MARGIN * self.dx
             high = np.where(beyond, np.maximum(high, low + thick), high) + FACE_MARGIN * self.dx
             boxes.append(Box(center=tuple(0.5 * (low + high)), half_extents=tuple(0.5 * (high - low)),
-                             **({"contact": wall.contact} | navier)))
+                             **held(wall.contact)))
         if effects.gate_lift_time > 0:
             boxes.append(self.gate(effects.gate_lift_time))
         return [floor, *boxes]

@@ -18,14 +18,14 @@ class Effects:
     """What the base dam break leaves out, each at its null value by default (the base model, bit for bit).
 
     ``floor_friction``: the Coulomb coefficient of a floor the material slides on (None: the floor as the setup
-    gives it). ``wall_slip`` (Pa s/m): the floor and walls hold the material with a Navier traction, this
-    coefficient times its slip velocity (None: the setup's contact laws; a floor friction, when given, prevails on
-    the floor). ``gate_lift_time`` (s): a gate at the cuboid's front slides up at a constant speed and clears the
-    material's height after this time (0: released at once). ``gravity_tilt`` (rad): gravity leans towards +x,
-    down the channel (a table or camera not level). ``density_factor``: the material's density times this (a wrong
-    density). ``physics``: the engine's optional physics (air drag, thixotropy, wall adhesion, surface tension,
-    the open drag); the scene sets the open drag's floor layer to a quarter of the material's height and its span
-    to the rollout's duration."""
+    gives it). ``wall_slip`` (Pa s/m): the floor and walls that the setup makes sticky hold the material with a
+    Navier traction, this coefficient times its slip velocity, and walls that slip freely stay so (None: the setup's
+    contact laws; a floor friction, when given, prevails on the floor). ``gate_lift_time`` (s): a gate at the
+    cuboid's front slides up at a constant speed and clears the material's height after this time (0: released at
+    once). ``gravity_tilt`` (rad): gravity leans towards +x, down the channel (a table or camera not level).
+    ``density_factor``: the material's density times this (a wrong density). ``physics``: the engine's optional
+    physics (air drag, thixotropy, wall adhesion, surface tension, the open drag); the scene sets the open drag's
+    floor layer to a quarter of the material's height and its span to the rollout's duration."""
 
     floor_friction: float | None = None
     wall_slip: float | None = None
