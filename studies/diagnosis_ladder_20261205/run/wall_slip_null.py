@@ -22,6 +22,12 @@ settings = config["diagnose"]
 simulation = {**config["virheometry"]["simulation"], "held_out_every": settings["held_out_every"],
               "forecast_share": settings["forecast_share"]}
 candidate = CANDIDATES["wall_slip"]
+
+
+def loss(built: dict, law: Law, point: np.ndarray) -> float:
+    return float(np.mean([compare_law(t, law, point).loss for t in built.values()]))
+
+
 out = {}
 for case in sys.argv[1:]:
     folders = sorted(p for p in (SUITE / case / "recording").iterdir() if p.is_dir())
@@ -32,11 +38,8 @@ for case in sys.argv[1:]:
     x = np.log([fit[PARAMETER_KEYS[n]]["value"] for n in base.names])
     slipping = Law(n=1.0, fitted_modulus=base.fitted_modulus, candidate=candidate)
 
-    def loss(law: Law, point: np.ndarray) -> float:
-        return float(np.mean([compare_law(t, law, point).loss for t in built.values()]))
-
-    out[case] = {"base_px": loss(base, x),
-                 "wall_slip_px": loss(slipping, np.r_[x, candidate.nearest_null]),
+    out[case] = {"base_px": loss(built, base, x),
+                 "wall_slip_px": loss(built, slipping, np.r_[x, candidate.nearest_null]),
                  "coefficient_Pa_s_per_m": candidate.value(candidate.nearest_null)}
     print(case, out[case], flush=True)
 (STUDY / "wall_slip_null.json").write_text(json.dumps(out, indent=1) + "\n")
