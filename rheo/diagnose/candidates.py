@@ -108,6 +108,7 @@ class Candidate:
 
 
 CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
+    # each profile starts at its box's weak end: the base model, or as near it as the effect's law comes
     # null: a sticky floor (an infinite coefficient); the box reaches from a floor that barely holds to nearly sticky
     Candidate("floor_friction", "floor friction (the material slides on the floor)", "Coulomb coefficient", "",
               math.inf, 0.05, 5.0, ((2.0, 1.0, 0.5, 0.3, 0.18, 0.1),)),
@@ -115,7 +116,7 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
     # makes the material slip at 0.1 mm/s to 1 m/s
     Candidate("wall_slip", "wall slip (the material slides on a sticky floor and walls, Navier's law)",
               "slip coefficient", "Pa s/m", math.inf, 10.0, 1.0e5, ((1.0e4, 3.0e3, 1.0e3, 300.0, 100.0),)),
-    Candidate("wall_adhesion", "wall adhesion (smooth walls hold the material)", "adhesion", "Pa", 0.0, 1.0, 1000.0,
+    Candidate("wall_adhesion", "wall adhesion (smooth walls hold the material)", "adhesion", "Pa", 0.0, 0.1, 1000.0,
               ((5.0, 15.0, 45.0, 135.0),)),
     Candidate("gate_lift", "a gate lifted at a finite speed", "lift time", "s", 0.0, 0.005, 0.3,
               ((0.03, 0.06, 0.12, 0.24),)),
@@ -126,7 +127,7 @@ CANDIDATES: dict[str, Candidate] = {c.name: c for c in (
     # water's tension is 0.072 N/m, a surfactant's solutions' 0.025-0.04
     Candidate("surface_tension", "surface tension (the free surface pulls the material together)", "tension",
               "N/m", 0.0, 0.003, 0.3, ((0.01, 0.03, 0.09),)),
-    Candidate("air_drag", "air drag", "quadratic drag coefficient", "1/m", 0.0, 0.1, 100.0,
+    Candidate("air_drag", "air drag", "quadratic drag coefficient", "1/m", 0.0, 0.01, 100.0,
               ((2.0, 6.0, 20.0, 60.0),)),
     Candidate("gravity_tilt", "gravity tilted along the channel (decoy)", "tilt", "deg", 0.0, -15.0, 15.0,
               ((2.0, 5.0, 10.0), (-2.0, -5.0, -10.0)), log=False, decoy=True, step=3.0),

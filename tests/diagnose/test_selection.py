@@ -1,6 +1,7 @@
 """Choosing an effect: the information criterion against its formula, a refit that finds a known optimum, and
 the rule that a free parameter must pay for itself."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -16,7 +17,9 @@ from rheo.diagnose.selection import (
     information_criterion,
     profile_refit,
 )
+from rheo.experiments.dam_break import dam_break_scene
 from rheo.experiments.effects import Effects
+from rheo.physics import HerschelBulkley
 from rheo.fit.dam_break import stress_split
 from rheo.fit.search import LINE_EXPANSIONS, EvaluationLog, line_search
 
@@ -421,6 +424,28 @@ def test_candidates_at_their_null_values_give_back_the_base_law_and_effects():
     thinning, _ = Law(1.0, CANDIDATES["shear_thinning"], fitted_modulus=True).unpack(np.r_[x, math.log(400.0),
                                                                                             math.log(0.5)])
     assert thinning == pytest.approx({"tau_y": 8.0, "K": 2.0, "n": 0.5, "mu": 400.0})
+
+
+def test_each_profile_starts_from_the_base_dam_break_but_where_the_floor_lets_the_material_leave_it(channel):
+    """Every candidate at its box's weak end, in a channel of smooth walls on a sticky floor: the front within a
+    thirtieth of a cell of the base model's, but for the sliding floors, whose contact laws let the material leave the
+    floor (a Coulomb floor; a Navier floor, which also holds only the nodes at its face)."""
+    setup = channel((0.0, 0.05, 0.0, 0.04))
+    smooth = dataclasses.replace(setup, walls=[setup.walls[0]] + [dataclasses.replace(w, contact="slip")
+                                                                  for w in setup.walls[1:]])
+    scene = dam_break_scene(smooth, cells_per_height=6)
+    law = {"tau_y": 5.0, "K": 0.5, "n": 1.0}
+
+    def front_shift(candidate, value: float) -> float:  # at the end, in cells
+        values, effects = candidate.apply(value, law, Effects())
+        front = scene.rollout(HerschelBulkley(**values, mu=2e4, lam=2e4), 0.2, 0.05, effects).x[:, :, 0].max()
+        return float(front - base) / scene.dx
+
+    base = scene.rollout(HerschelBulkley(**law, mu=2e4, lam=2e4), 0.2, 0.05).x[:, :, 0].max()
+    shifts = {c.name: front_shift(c, c.value(c.nearest_null)) for c in CANDIDATES.values()}
+    assert {name for name, shift in shifts.items() if abs(shift) > 1 / 30} == {"floor_friction", "wall_slip"}
+    assert 0 < shifts["floor_friction"] < 0.5 and 0 < shifts["wall_slip"] < 0.5
+    assert front_shift(CANDIDATES["wall_adhesion"], 1.0) < -1 / 30  # a weak end of 1 Pa would hold the front back
 
 
 def test_a_refits_first_simplex_is_as_wide_as_the_base_fits_interval():

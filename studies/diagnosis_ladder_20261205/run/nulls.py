@@ -1,7 +1,8 @@
-"""The loss of a fifth-suite case's base fit (``studies/suite_20261204``) without any effect and with wall slip at
-its candidate's stickiest coefficient, the null a profile starts from, both simulated with the code as it stands.
-Run from the repository root: ``PYTHONPATH=. python studies/diagnosis_ladder_20261205/run/wall_slip_null.py <case>
-...``; writes ``wall_slip_null.json`` beside this folder."""
+"""The loss of a fifth-suite case's base fit (``studies/suite_20261204``) without any effect and with each default
+candidate at its nearest null (the weakest magnitude its box holds, where each profile starts), simulated with the
+code as it stands. Run from the repository root: ``PYTHONPATH=. python
+studies/diagnosis_ladder_20261205/run/nulls.py <case> ...``; writes ``nulls.json`` beside this folder, the loss
+ratios to the base fit's per case and candidate."""
 
 import json
 import sys
@@ -21,7 +22,6 @@ config = validated(load_yaml("config/config.yaml"), load_schema("workflow/schema
 settings = config["diagnose"]
 simulation = {**config["virheometry"]["simulation"], "held_out_every": settings["held_out_every"],
               "forecast_share": settings["forecast_share"]}
-candidate = CANDIDATES["wall_slip"]
 
 
 def loss(built: dict, law: Law, point: np.ndarray) -> float:
@@ -36,10 +36,11 @@ for case in sys.argv[1:]:
     fit = json.loads((SUITE / case / "fit/params.json").read_text())
     base = Law(n=1.0, fitted_modulus="mu_Pa" in fit)
     x = np.log([fit[PARAMETER_KEYS[n]]["value"] for n in base.names])
-    slipping = Law(n=1.0, fitted_modulus=base.fitted_modulus, candidate=candidate)
-
-    out[case] = {"base_px": loss(built, base, x),
-                 "wall_slip_px": loss(built, slipping, np.r_[x, candidate.nearest_null]),
-                 "coefficient_Pa_s_per_m": candidate.value(candidate.nearest_null)}
-    print(case, out[case], flush=True)
-(STUDY / "wall_slip_null.json").write_text(json.dumps(out, indent=1) + "\n")
+    out[case] = {"base_px": loss(built, base, x)}
+    for name in settings["candidates"]:
+        candidate = CANDIDATES[name]
+        law = Law(n=1.0, fitted_modulus=base.fitted_modulus, candidate=candidate)
+        out[case][name] = {"at": candidate.value(candidate.nearest_null),
+                           "ratio": loss(built, law, np.r_[x, candidate.nearest_null]) / out[case]["base_px"]}
+        print(case, name, out[case][name], flush=True)
+(STUDY / "nulls.json").write_text(json.dumps(out, indent=1) + "\n")
