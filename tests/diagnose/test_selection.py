@@ -19,9 +19,9 @@ from rheo.diagnose.selection import (
 )
 from rheo.experiments.dam_break import dam_break_scene
 from rheo.experiments.effects import Effects
-from rheo.physics import HerschelBulkley
 from rheo.fit.dam_break import stress_split
 from rheo.fit.search import LINE_EXPANSIONS, EvaluationLog, line_search
+from rheo.physics import HerschelBulkley
 
 EVIDENCE = 6.0  # diagnose.evidence's default
 SPLIT_STEP = (0.1, 1.0)  # diagnose.stress_step and share_step's defaults
