@@ -306,7 +306,7 @@ def test_a_profile_refits_halfway_between_its_best_rung_and_the_next(tmp_path):
 
     log = EvaluationLog(tmp_path / "log.json", "key")
     refit = profile_refit(candidate, _logged(log, loss), log.best, base_x, LAW_BOX, SPLIT_STEP, 5)
-    assert [value for value, _ in refit.profile] == pytest.approx([1.0, 5.0, math.sqrt(75.0), 15.0, 45.0, 135.0])
+    assert [value for value, _ in refit.profile] == pytest.approx([0.1, 5.0, math.sqrt(75.0), 15.0, 45.0, 135.0])
     assert candidate.value(refit.x[2]) == pytest.approx(math.sqrt(75.0)) and refit.loss < 0.03  # 5 Pa: 0.45
 
 
