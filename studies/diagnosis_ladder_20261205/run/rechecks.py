@@ -8,19 +8,15 @@ import json
 import sys
 from pathlib import Path
 
-from rheo.config import load_schema, load_yaml, validated
-
 STUDY = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(STUDY.parent / "recheck_20261205" / "run"))
 from recheck import recheck  # noqa: E402
 
 CASE = "c7fa1a139"
-evidence = validated(load_yaml("config/config.yaml"), load_schema("workflow/schemas/config.schema.yaml"),
-                     "config")["diagnose"]["evidence"]
 diagnosis = json.loads((STUDY / "results/concealed" / CASE / "diagnosis/diagnosis.json").read_text())
 results = []
 for candidate in diagnosis["candidates"]:
-    if candidate["decoy"] or candidate["delta_criterion"] >= -evidence:
+    if candidate["decoy"] or candidate["delta_criterion"] >= -diagnosis["evidence"]:
         continue
     name = candidate["effect"]
     found = recheck(STUDY.parent / "suite_20261204" / "results" / "concealed" / CASE, diagnosis, candidate,

@@ -55,7 +55,7 @@ def recheck(case_root: Path, diagnosis: dict, candidate: dict, store: Path, phas
     return {"recheck_loss_px": found.loss, "recheck_delta_criterion": delta,
             "recheck_values": dict(zip((PARAMETER_KEYS[n] for n in law.names), np.exp(found.x).tolist(),
                                        strict=True)),
-            "still_named": candidate["delta_criterion"] < min(0.0, delta) - settings["evidence"]}
+            "still_named": candidate["delta_criterion"] < min(0.0, delta) - diagnosis["evidence"]}
 
 
 if __name__ == "__main__":
