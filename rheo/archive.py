@@ -6,6 +6,7 @@ stored evaluations.
 
     python -m rheo.archive save ARCHIVE results/concealed logs/concealed --inputs stages config/experiments/suite_7
     python -m rheo.archive restore ARCHIVE
+    python -m rheo.archive status ARCHIVE '*/fit/params.json'
 
 The archive is a plain folder (the files under their paths, ``mtimes.json`` and ``inputs.json``), so a
 version-control system stores only the files that changed between two saves. A log that a rerun started afresh
@@ -20,7 +21,9 @@ import os
 import re
 import shutil
 import sys
+import time
 from collections.abc import Callable, Sequence
+from fnmatch import fnmatch
 from pathlib import Path
 
 from rheo.io import file_sha256, read_json, write_atomic, write_json_atomic
@@ -28,6 +31,7 @@ from rheo.io import file_sha256, read_json, write_atomic, write_json_atomic
 MTIMES = "mtimes.json"  # archived file: its modification time (ns)
 INPUTS = "inputs.json"  # input file: its modification time (ns) and sha256
 EARLIER_LOG = re.compile(r"\.earlier-\d+\.log$")  # an archived log of an earlier run of the same job
+STORE = ".evaluations.json"  # a stage's stored evaluations, beside the output they make (rheo.fit.search)
 
 
 class ArchiveError(Exception):
@@ -151,6 +155,42 @@ def restore(archive: str | os.PathLike, root: str | os.PathLike = ".") -> dict[s
     return counts
 
 
+def status(archive: str | os.PathLike, patterns: Sequence[str] = ()) -> dict:
+    """What ``archive`` holds: its files, the newest one's modification time (UTC), how many files match each of
+    ``patterns`` (globs on the path), and, for each stage whose output is not archived but whose stored evaluations
+    are, how many evaluations a resumed stage replays and the minutes they took."""
+    archive = Path(archive)
+    if not (archive / MTIMES).is_file():
+        raise ArchiveError(f"{archive}: no {MTIMES}, not an archive that rheo.archive saved")
+    mtimes = _listing(archive / MTIMES, lambda t: isinstance(t, int), "their modification times (ns)")
+    unfinished = {}
+    for relative in sorted(mtimes):
+        output = relative.removesuffix(STORE) + ".json"
+        if relative.endswith(STORE) and output not in mtimes:
+            stored = read_json(archive / relative)
+            if not isinstance(stored, dict):  # a search's log keeps its records under "records", a grid's by point
+                raise ArchiveError(f"{archive / relative}: expected stored evaluations")
+            seconds = stored.get("runtime_s", stored.get("seconds"))
+            unfinished[output] = {"evaluations": len(stored.get("records", stored)),
+                                  "minutes": None if seconds is None else round(seconds / 60)}
+    newest = max(mtimes.values(), default=None)
+    return {"files": len(mtimes),
+            "newest": None if newest is None else time.strftime("%Y-%m-%d %H:%M", time.gmtime(newest / 1e9)),
+            "matching": {pattern: sum(fnmatch(relative, pattern) for relative in mtimes) for pattern in patterns},
+            "unfinished": unfinished}
+
+
+def _report(archive: str, found: dict) -> str:
+    lines = [f"{archive}: {found['files']} files, the newest modified {found['newest']} UTC"]
+    lines += [f"{pattern}: {count}" for pattern, count in found["matching"].items()]
+    if found["unfinished"]:
+        lines.append("stages unfinished, with the evaluations a resumed stage replays:")
+        for output, stored in found["unfinished"].items():
+            took = "" if stored["minutes"] is None else f" in {stored['minutes']} min"
+            lines.append(f"  {output}: {stored['evaluations']} evaluations{took}")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m rheo.archive", description=__doc__.split("\n\n")[0])
     commands = parser.add_subparsers(dest="command", required=True)
@@ -162,8 +202,14 @@ def main(argv: list[str] | None = None) -> int:
     restoring.add_argument("archive")
     for command in (saving, restoring):
         command.add_argument("--root", default=".", help="the working tree (default: here)")
+    reporting = commands.add_parser("status", help="what an archive holds and what a resumed run replays")
+    reporting.add_argument("archive")
+    reporting.add_argument("patterns", nargs="*", help="globs on the archived paths whose files are counted")
     args = parser.parse_args(argv)
     try:
+        if args.command == "status":
+            print(_report(args.archive, status(args.archive, args.patterns)))
+            return 0
         counts = (save(args.archive, args.folders, args.root, args.inputs) if args.command == "save"
                   else restore(args.archive, args.root))
     except ArchiveError as error:

@@ -8,9 +8,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
-from rheo.archive import INPUTS, MTIMES, ArchiveError, main, restore, save
+from rheo.archive import INPUTS, MTIMES, ArchiveError, main, restore, save, status
+from rheo.fit.search import EvaluationLog
 
 SNAKEFILE = """
 rule all:
@@ -166,6 +168,34 @@ def test_a_log_that_a_rerun_started_afresh_leaves_the_earlier_runs_log_archived_
     save(archive, ["logs"], root=tree)
     assert restore(archive, root=copy)["restored"] == 2
     assert (copy / "logs/a.earlier-1.log").read_text().split() == ["first", "first", "first,", "more"]
+
+
+def test_status_counts_the_outputs_made_and_the_evaluations_an_unfinished_stage_replays(tmp_path, capsys):
+    tree, archive = tmp_path / "tree", tmp_path / "archive"
+    for case, evaluated, finished in (("a", 3, True), ("b", 5, False), ("c", 2, False)):
+        fit = tree / "results" / case / "fit"
+        fit.mkdir(parents=True)
+        log = EvaluationLog(fit / "params.evaluations.json", key="settings")
+        for k in range(evaluated):
+            log.evaluate(lambda x: float(x @ x), np.array([k, 1.0]), phase="search")
+        if finished:
+            (fit / "params.json").write_text("{}")
+    os.utime(tree / "results/c/fit/params.evaluations.json", ns=(1_800_000_000_000_000_000,) * 2)  # the newest
+    save(archive, ["results"], root=tree)
+    (tree / "results/b/fit/params.json").write_text("{}")  # finished after the save: not in the archive
+
+    found = status(archive, ["*/fit/params.json", "*/truth.json"])
+    assert found["files"] == 4
+    assert found["newest"] == "2027-01-15 08:00"  # 1.8e9 s after 1970-01-01 00:00 UTC
+    assert found["matching"] == {"*/fit/params.json": 1, "*/truth.json": 0}
+    assert {output: stored["evaluations"] for output, stored in found["unfinished"].items()} == {
+        "results/b/fit/params.json": 5, "results/c/fit/params.json": 2}
+
+    assert main(["status", str(archive), "*/fit/params.json"]) == 0
+    assert "results/b/fit/params.json: 5 evaluations in 0 min" in capsys.readouterr().out
+    (archive / "results/c/fit/params.evaluations.json").write_text("[]")
+    assert main(["status", str(archive)]) == 1
+    assert "results/c/fit/params.evaluations.json: expected stored evaluations" in capsys.readouterr().err
 
 
 def test_bad_input_gets_one_error_naming_the_path(tmp_path, capsys):
