@@ -187,7 +187,8 @@ def _report(archive: str, found: dict) -> str:
         lines.append("stages unfinished, with the evaluations a resumed stage replays:")
         for output, stored in found["unfinished"].items():
             took = "" if stored["minutes"] is None else f" in {stored['minutes']} min"
-            lines.append(f"  {output}: {stored['evaluations']} evaluations{took}")
+            count = stored["evaluations"]
+            lines.append(f"  {output}: {count} evaluation{'' if count == 1 else 's'}{took}")
     return "\n".join(lines)
 
 
