@@ -26,12 +26,11 @@ from collections.abc import Callable, Sequence
 from fnmatch import fnmatch
 from pathlib import Path
 
-from rheo.io import file_sha256, read_json, write_atomic, write_json_atomic
+from rheo.io import EVALUATIONS_SUFFIX, file_sha256, read_json, write_atomic, write_json_atomic
 
 MTIMES = "mtimes.json"  # archived file: its modification time (ns)
 INPUTS = "inputs.json"  # input file: its modification time (ns) and sha256
 EARLIER_LOG = re.compile(r"\.earlier-\d+\.log$")  # an archived log of an earlier run of the same job
-STORE = ".evaluations.json"  # a stage's stored evaluations, beside the output they make (rheo.fit.search)
 
 
 class ArchiveError(Exception):
@@ -165,8 +164,8 @@ def status(archive: str | os.PathLike, patterns: Sequence[str] = ()) -> dict:
     mtimes = _listing(archive / MTIMES, lambda t: isinstance(t, int), "their modification times (ns)")
     unfinished = {}
     for relative in sorted(mtimes):
-        output = relative.removesuffix(STORE) + ".json"
-        if relative.endswith(STORE) and output not in mtimes:
+        output = relative.removesuffix(EVALUATIONS_SUFFIX) + ".json"
+        if relative.endswith(EVALUATIONS_SUFFIX) and output not in mtimes:
             stored = read_json(archive / relative)
             if not isinstance(stored, dict):  # a search's log keeps its records under "records", a grid's by point
                 raise ArchiveError(f"{archive / relative}: expected stored evaluations")

@@ -1,4 +1,5 @@
-"""Atomic writes (a file appears complete under its final name or not at all), JSON and file fingerprints."""
+"""Atomic writes (a file appears complete under its final name or not at all), JSON, file fingerprints and the
+file where a stage stores its evaluations."""
 
 from __future__ import annotations
 
@@ -11,6 +12,8 @@ import shutil
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+
+EVALUATIONS_SUFFIX = ".evaluations.json"
 
 
 def _temporary_prefix(path: Path) -> str:
@@ -97,3 +100,8 @@ def file_sha256(path: str | os.PathLike) -> str:
     """The sha256 of a file's bytes (hex)."""
     with open(path, "rb") as f:
         return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def evaluations_path(output: str | os.PathLike) -> Path:
+    """The file beside ``output`` where the stage that makes it stores its evaluations (to resume from)."""
+    return Path(output).with_suffix(EVALUATIONS_SUFFIX)

@@ -11,7 +11,7 @@ from rheo.diagnose.dam_break import diagnose
 from rheo.experiments.rheometer import PARAMETER_KEYS, RESULT_KEYS, read_flow_curve
 from rheo.fit.dam_break import setup_files
 from rheo.fit.search import EvaluationLog
-from rheo.io import read_json, write_json_atomic, write_text_atomic
+from rheo.io import evaluations_path, read_json, write_json_atomic, write_text_atomic
 from rheo.report.diagnosis import maps_figure, section
 from rheo.report.figures import save_figure
 from rheo.report.html import page
@@ -27,7 +27,7 @@ base_values = {name: p["value"] for name, p in fitted.items()}
 base_intervals = {name: tuple(p["interval"]) for name, p in fitted.items()}
 output = Path(smk.output.diagnosis)
 settings = smk.params.settings
-evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
+evaluations = EvaluationLog(evaluations_path(output),
                             inputs_key([settings, smk.params.fit_settings, smk.params.simulation],
                                        [smk.input.fit, *smk.input.setups, *smk.input.masks]))
 bar = tqdm(desc=f"diagnose {output.parent.parent.name}", unit="evaluation")

@@ -19,7 +19,7 @@ from rheo.experiments.scene import material
 from rheo.fit.inverse import PARAMETERS, initial_guess, log_values, silhouette_objectives, survey_velocities
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, estimate, simplex_search, start_step, survey_points
-from rheo.io import read_json, write_atomic, write_json_atomic
+from rheo.io import evaluations_path, read_json, write_atomic, write_json_atomic
 from rheo.stage import inputs_key, start_stage
 
 smk = snakemake  # noqa: F821  (injected by Snakemake)
@@ -36,7 +36,7 @@ guess = log_values(initial, names).numpy()
 half_width = np.log(settings["warmup"]["box"])
 box = (guess - half_width, guess + half_width)
 output = Path(smk.output[0])
-evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
+evaluations = EvaluationLog(evaluations_path(output),
                             inputs_key([exp, phase_name], [smk.input.seed, smk.input.cameras, smk.input.velocity,
                                                            *([] if warmup else [smk.input.warmup])]),
                             one_objective=True)

@@ -14,7 +14,7 @@ from rheo.fit.convergence import (
     study_cases,
     summarize,
 )
-from rheo.io import write_json_atomic, write_text_atomic
+from rheo.io import evaluations_path, write_json_atomic, write_text_atomic
 from rheo.report.convergence import render
 from rheo.stage import start_stage
 
@@ -29,7 +29,7 @@ setups = [read_setup(f, smk.params.scale, smk.params.fps) for f in smk.params.fo
 cases = study_cases(setups, laws, study["grids"], study["cfls"],
                     (simulation["cells_per_height"], simulation["cells_across"]))
 output = Path(smk.output.summary)
-store = EvaluationStore(output.with_suffix(".evaluations.json"), engine_fingerprint())
+store = EvaluationStore(evaluations_path(output), engine_fingerprint())
 rows = run(cases, simulation, smk.params.scale, store, smk.threads)
 default_h = default_cells(setups, simulation)
 result = {"material": material, "laws": laws, "study": study, "simulation": simulation, "engine": store.fingerprint,

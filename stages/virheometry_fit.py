@@ -33,7 +33,7 @@ from rheo.fit.dam_break import (
 from rheo.fit.parallel import Evaluator
 from rheo.fit.search import EvaluationLog, estimate
 from rheo.fit.uncertainty import grown_to_profile, tolerance_level
-from rheo.io import json_number, write_atomic, write_json_atomic
+from rheo.io import evaluations_path, json_number, write_atomic, write_json_atomic
 from rheo.report.figures import save_figure
 from rheo.report.virheometry import frames_figure
 from rheo.stage import inputs_key, start_stage
@@ -47,7 +47,7 @@ names = law.names
 low = np.log([settings[n][0] for n in names])
 high = np.log([settings[n][1] for n in names])
 output = Path(smk.output.params)
-evaluations = EvaluationLog(output.with_suffix(".evaluations.json"),
+evaluations = EvaluationLog(evaluations_path(output),
                             inputs_key([settings, simulation], [*smk.input.setups, *smk.input.masks]),
                             one_objective=True)
 bar = tqdm(desc=f"{output.parent.parent.name} {output.parent.name}", unit="evaluation")

@@ -13,6 +13,7 @@ import pytest
 
 from rheo.archive import INPUTS, MTIMES, ArchiveError, main, restore, save, status
 from rheo.fit.search import EvaluationLog
+from rheo.io import evaluations_path
 
 SNAKEFILE = """
 rule all:
@@ -175,7 +176,7 @@ def test_status_counts_the_outputs_made_and_the_evaluations_an_unfinished_stage_
     for case, evaluated, finished in (("a", 3, True), ("b", 5, False), ("c", 2, False)):
         fit = tree / "results" / case / "fit"
         fit.mkdir(parents=True)
-        log = EvaluationLog(fit / "params.evaluations.json", key="settings")
+        log = EvaluationLog(evaluations_path(fit / "params.json"), key="settings")
         for k in range(evaluated):
             log.evaluate(lambda x: float(x @ x), np.array([k, 1.0]), phase="search")
         if finished:

@@ -48,7 +48,7 @@ from rheo.experiments.rheometer import fit_herschel_bulkley, pooled, read_flow_c
 from rheo.experiments.virheometry import FPS, Setup, read_setup, setup_folders
 from rheo.fit.dam_break import OFFSET_STEP, DamBreakTarget, target
 from rheo.fit.parallel import Evaluator
-from rheo.io import write_json_atomic
+from rheo.io import evaluations_path, write_json_atomic
 from rheo.physics.device import DEVICES, device_name, set_default_device
 
 logger = logging.getLogger(__name__)
@@ -426,7 +426,7 @@ def main(argv: list[str] | None = None) -> None:
     setups = [read_setup(f, config["scale"], config["fps"]) for f in folders]
     cases = study_cases(setups, laws, args.grids, args.cfl or [simulation["cfl"]],
                         (simulation["cells_per_height"], simulation["cells_across"]))
-    store = EvaluationStore(args.store or args.out.with_suffix(".evaluations.json"), engine_fingerprint())
+    store = EvaluationStore(args.store or evaluations_path(args.out), engine_fingerprint())
     rows = run(cases, simulation, config["scale"], store, args.workers)
     default_h = default_cells(setups, simulation)
     write_json_atomic(args.out, {"material": args.material, "device": device_name(), "laws": laws,
