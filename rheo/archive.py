@@ -26,7 +26,7 @@ from collections.abc import Callable, Sequence
 from fnmatch import fnmatch
 from pathlib import Path
 
-from rheo.io import EVALUATIONS_SUFFIX, file_sha256, read_json, write_atomic, write_json_atomic
+from rheo.io import evaluated_output, file_sha256, read_json, write_atomic, write_json_atomic
 
 MTIMES = "mtimes.json"  # archived file: its modification time (ns)
 INPUTS = "inputs.json"  # input file: its modification time (ns) and sha256
@@ -164,8 +164,8 @@ def status(archive: str | os.PathLike, patterns: Sequence[str] = ()) -> dict:
     mtimes = _listing(archive / MTIMES, lambda t: isinstance(t, int), "their modification times (ns)")
     unfinished = {}
     for relative in sorted(mtimes):
-        output = relative.removesuffix(EVALUATIONS_SUFFIX) + ".json"
-        if relative.endswith(EVALUATIONS_SUFFIX) and output not in mtimes:
+        output = evaluated_output(relative)
+        if output is not None and output not in mtimes:
             stored = read_json(archive / relative)
             if not isinstance(stored, dict):  # a search's log keeps its records under "records", a grid's by point
                 raise ArchiveError(f"{archive / relative}: expected stored evaluations")

@@ -13,7 +13,7 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-EVALUATIONS_SUFFIX = ".evaluations.json"
+_EVALUATIONS_SUFFIX = ".evaluations.json"  # a stage's stored evaluations, beside its .json output
 
 
 def _temporary_prefix(path: Path) -> str:
@@ -104,4 +104,10 @@ def file_sha256(path: str | os.PathLike) -> str:
 
 def evaluations_path(output: str | os.PathLike) -> Path:
     """The file beside ``output`` where the stage that makes it stores its evaluations (to resume from)."""
-    return Path(output).with_suffix(EVALUATIONS_SUFFIX)
+    return Path(output).with_suffix(_EVALUATIONS_SUFFIX)
+
+
+def evaluated_output(store: str) -> str | None:
+    """The output whose stage stores its evaluations in the file ``store`` (the inverse of ``evaluations_path``);
+    None where ``store`` is not such a file."""
+    return store.removesuffix(_EVALUATIONS_SUFFIX) + ".json" if store.endswith(_EVALUATIONS_SUFFIX) else None
