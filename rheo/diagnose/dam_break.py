@@ -20,6 +20,8 @@ import numpy as np
 from rheo.diagnose.candidates import CANDIDATES, OPEN_BOX, OPEN_DRAG, OPEN_STEP, Candidate, Law, matched_law, open_rates
 from rheo.diagnose.residuals import Location, locate
 from rheo.diagnose.selection import (
+    Best,
+    Evaluate,
     Refit,
     best_base,
     choose,
@@ -230,6 +232,18 @@ def recheck_start(candidate: Candidate, x: np.ndarray, law: Law, band: Sequence[
     return np.clip(start, *law_box)
 
 
+def base_refit_from(effect: str, x: np.ndarray, law: Law, band: Sequence[float] | None,
+                    law_box: tuple[np.ndarray, np.ndarray], steps: np.ndarray, evaluate: Evaluate, best: Best,
+                    evaluations: int, phase: str | None = None) -> Refit:
+    """The recheck of a winner: the base model searched from the law of ``effect``'s refit ``x``
+    (``recheck_start``), ``evaluations`` of a simplex search (initial simplex half the law's ``steps``) in ``phase``,
+    ``recheck <effect>`` unless given; its best point, from ``best``."""
+    phase = phase or f"recheck {effect}"
+    start = recheck_start(CANDIDATES[effect], x, law, band, law_box)
+    simplex_search(evaluate, start, 0.5 * steps, evaluations, phase, box=law_box)
+    return Refit.of("base", best(phase))
+
+
 def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings: dict, settings: dict,
              base_values: dict[str, float], base_intervals: dict[str, tuple[float, float]], log: EvaluationLog,
              workers: int, on_evaluation: Callable[[str, np.ndarray, float], None] = lambda *_: None) -> Diagnosis:
@@ -301,9 +315,8 @@ def diagnose(setups: dict[str, tuple[str, str]], simulation: dict, fit_settings:
                         r.criterion - base.criterion)
 
         def base_from(refit: Refit) -> Refit:
-            """The base model searched from ``refit``'s law."""
-            start = recheck_start(CANDIDATES[refit.name], refit.x, law, band, law_box)
-            return searched("base", start, [], [], [], settings["refit_evaluations"], f"recheck {refit.name}")
+            return base_refit_from(refit.name, refit.x, law, band, law_box, steps, evaluate("base"), log.best,
+                                   settings["refit_evaluations"])
 
         if settings["refit_evaluations"] > 0:
             chosen, recheck = confirmed(base, found, settings["evidence"], base_from)

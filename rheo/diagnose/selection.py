@@ -194,3 +194,10 @@ def confirmed(base: Refit, found: Sequence[Refit], evidence: float,
 def best_base(base: Refit, recheck: Refit | None) -> Refit:
     """The base model's best refit: the base fit, or its recheck from a winner's law where that fits better."""
     return recheck if recheck is not None and recheck.criterion < base.criterion else base
+
+
+def named_below(evidence: float, recheck_delta: float | None) -> float:
+    """The change of the criterion from the base fit's below which an effect is named (``pays`` against
+    ``best_base``), from a diagnosis' record: ``evidence`` below the base model's best refit, the base fit or its
+    recheck (``recheck_delta`` from the base fit; None: not rechecked)."""
+    return min(0.0, 0.0 if recheck_delta is None else recheck_delta) - evidence

@@ -13,6 +13,7 @@ import numpy as np
 
 from rheo.diagnose.candidates import CANDIDATES, OPEN_DRAG
 from rheo.diagnose.scores import loss_change
+from rheo.diagnose.selection import named_below
 from rheo.physics.optional import OPEN_LAYER, open_drag_rate
 from rheo.report.html import figure_tag, image_tag, in_words, table_tag
 from rheo.report.virheometry import held_out_changes, overlay_grid
@@ -108,8 +109,7 @@ def closest_text(record: dict) -> str:
     if closest["delta_criterion"] >= 0:
         return "<p>No candidate lowers the criterion.</p>"
     changes = held_out_changes(closest, record["base"], ("between fitted frames", "last frames"))
-    # an effect must beat the base model's best refit (the base fit, or its recheck from the winner's law)
-    threshold = min(0.0, (record.get("recheck") or {}).get("delta_criterion", 0.0)) - record["evidence"]
+    threshold = named_below(record["evidence"], (record.get("recheck") or {}).get("delta_criterion"))
     return (f"<p>Closest to being named: {closest['title']}, criterion {closest['delta_criterion']:+.1f} (named "
             f"below {threshold:.3g})" + (f"; its refit's held-out loss {', '.join(changes)}" if changes else "")
             + ".</p>")

@@ -10,10 +10,13 @@ from rheo.diagnose.candidates import BREAKDOWN_STRAINS, CANDIDATES, Law, matched
 from rheo.diagnose.dam_break import MIN_LAW_STEP, law_steps, recheck_start
 from rheo.diagnose.selection import (
     Refit,
+    best_base,
     choose,
     confirmed,
     finalists_refitted,
     information_criterion,
+    named_below,
+    pays,
     profile_refit,
 )
 from rheo.experiments.dam_break import dam_break_scene
@@ -100,6 +103,22 @@ def test_an_effect_is_named_only_if_the_base_model_refitted_from_its_law_does_no
     # a refit that does not pay is not rechecked
     assert confirmed(base, [_refit("air_drag", 0.9, 3)], EVIDENCE, base_from(0.5)) == (None, None)
     assert seen == ["thixotropy"] * 3
+
+
+def test_the_bar_read_from_a_diagnosis_record_is_the_rule_the_choice_applies():
+    """A diagnosis record holds criteria as changes from the base fit's; an effect's change below ``named_below``
+    is what pays against the base model's best refit, rechecked or not."""
+    base = _refit("base", 1.0, 2)
+    for scale in np.linspace(0.3, 1.2, 19):
+        effect = _refit("thixotropy", scale, 3)
+        delta = effect.criterion - base.criterion
+        assert (delta < named_below(EVIDENCE, None)) == pays(effect, base, EVIDENCE)
+        for recheck_scale in (0.4, 0.6, 0.9, 1.5):
+            recheck = _refit("base", recheck_scale, 2)
+            assert (delta < named_below(EVIDENCE, recheck.criterion - base.criterion)) == pays(
+                effect, best_base(base, recheck), EVIDENCE)
+    assert named_below(EVIDENCE, None) == -EVIDENCE and named_below(EVIDENCE, 2.0) == -EVIDENCE
+    assert named_below(EVIDENCE, -3.0) == -3.0 - EVIDENCE
 
 
 def _logged(log: EvaluationLog, loss):

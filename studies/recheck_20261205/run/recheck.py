@@ -1,5 +1,5 @@
 """The diagnosis' recheck on the fifth suite's null case c7fa1a139 (a training case): the base model searched from
-the law of the effect that won (thixotropy), as ``rheo.diagnose.dam_break.diagnose`` searches it, with the suite's
+the law of the effect that won (thixotropy) by the diagnosis' own recheck (``base_refit_from``), with the suite's
 settings. Run from the repository root: ``PYTHONPATH=. python studies/recheck_20261205/run/recheck.py``; the
 evaluations are stored in the study's folder, so a second run replays them. ``recheck`` serves other studies too."""
 
@@ -11,12 +11,12 @@ import numpy as np
 
 from rheo.config import load_schema, load_yaml, validated
 from rheo.diagnose.candidates import CANDIDATES, Law
-from rheo.diagnose.dam_break import law_steps, objectives, recheck_start, summary
-from rheo.diagnose.selection import Refit
+from rheo.diagnose.dam_break import base_refit_from, law_steps, objectives, summary
+from rheo.diagnose.selection import named_below
 from rheo.experiments.rheometer import PARAMETER_KEYS
 from rheo.fit.dam_break import setup_files
 from rheo.fit.parallel import Evaluator
-from rheo.fit.search import EvaluationLog, simplex_search
+from rheo.fit.search import EvaluationLog
 
 STUDY = Path(__file__).resolve().parents[1]
 CASE = "c7fa1a139"
@@ -41,21 +41,20 @@ def recheck(case_root: Path, diagnosis: dict, candidate: dict, store: Path, phas
     effect = CANDIDATES[candidate["effect"]]
     x = np.r_[np.log([candidate["values"][PARAMETER_KEYS[n]] for n in law.names]),
               effect.coordinate(candidate["values"][effect.name])]
-    start = recheck_start(effect, x, law, fit["shear_rate_band_per_s"], box)
     log = EvaluationLog(store, phase)
     with Evaluator(partial(objectives, setups, simulation, {"base": law}), workers) as evaluator:
 
         def joint(points: list[np.ndarray]) -> list[dict]:
             return [summary(evaluator.map([(f"base|{s}", x) for s in setups])) for x in points]
 
-        simplex_search(lambda x, phase: log.evaluate_many(joint, [x], phase)[0], start, 0.5 * steps,
-                       settings["refit_evaluations"], phase, box=box)
-    found = Refit.of("base", log.best(phase))
+        found = base_refit_from(effect.name, x, law, fit["shear_rate_band_per_s"], box, steps,
+                                lambda x, phase: log.evaluate_many(joint, [x], phase)[0], log.best,
+                                settings["refit_evaluations"], phase)
     delta = found.criterion - diagnosis["base"]["criterion"]
     return {"recheck_loss_px": found.loss, "recheck_delta_criterion": delta,
             "recheck_values": dict(zip((PARAMETER_KEYS[n] for n in law.names), np.exp(found.x).tolist(),
                                        strict=True)),
-            "still_named": candidate["delta_criterion"] < min(0.0, delta) - diagnosis["evidence"]}
+            "still_named": candidate["delta_criterion"] < named_below(diagnosis["evidence"], delta)}
 
 
 if __name__ == "__main__":
