@@ -220,6 +220,14 @@ def law_steps(names: tuple[str, ...], intervals: dict[str, tuple[float, float]],
     return np.array([np.clip(0.5 * np.log(intervals[n][1] / intervals[n][0]), MIN_LAW_STEP, largest) for n in names])
 
 
+def refit_point(law: Law, effect: str, values: dict[str, float]) -> np.ndarray:
+    """The search point of ``effect``'s refit from its ``values`` as a diagnosis record keeps them (the inverse of
+    ``Diagnosis.values``): the log law of ``law`` (a candidate's flow index comes from the effect), then the effect's
+    coordinate."""
+    law_x = np.log([values[PARAMETER_KEYS[name]] for name in law.material_names])
+    return np.r_[law_x, CANDIDATES[effect].coordinate(values[effect])]
+
+
 def recheck_start(candidate: Candidate, x: np.ndarray, law: Law, band: Sequence[float] | None,
                   law_box: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """Where the base model's recheck starts: the material coordinates of ``candidate``'s refit ``x``, with the flow

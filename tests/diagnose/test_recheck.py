@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rheo.diagnose.candidates import CANDIDATES, Law
-from rheo.diagnose.dam_break import base_refit_from, law_steps
+from rheo.diagnose.candidates import Law
+from rheo.diagnose.dam_break import base_refit_from, law_steps, refit_point
 from rheo.experiments.rheometer import PARAMETER_KEYS
 from rheo.fit.search import EvaluationLog
 
@@ -30,8 +30,7 @@ LAW_STEP, EVALUATIONS = 0.3, 20  # diagnose.law_step and refit_evaluations, as t
 def test_the_recheck_replays_the_stored_search(tmp_path, diagnosis, effect, store, phase, result):
     fit = json.loads((CASE / "fit/params.json").read_text())
     candidate = next(c for c in json.loads(diagnosis.read_text())["candidates"] if c["effect"] == effect)
-    x = np.r_[np.log([candidate["values"][PARAMETER_KEYS[n]] for n in LAW.names]),
-              CANDIDATES[effect].coordinate(candidate["values"][effect])]
+    x = refit_point(LAW, effect, candidate["values"])
     steps = law_steps(LAW.names, {n: tuple(fit[PARAMETER_KEYS[n]]["interval"]) for n in LAW.names}, LAW_STEP)
     shutil.copy(STUDIES / store, tmp_path / "store.json")
     log = EvaluationLog(tmp_path / "store.json", phase or f"recheck {effect}")

@@ -4,8 +4,8 @@ candidate, a drag free where and when it acts, said in words where it pays for i
 import numpy as np
 import pytest
 
-from rheo.diagnose.candidates import OPEN_DRAG, Law
-from rheo.diagnose.dam_break import Diagnosis, open_drag_words
+from rheo.diagnose.candidates import CANDIDATES, OPEN_DRAG, Law
+from rheo.diagnose.dam_break import Diagnosis, open_drag_words, refit_point
 from rheo.diagnose.residuals import REGIONS, Location
 from rheo.diagnose.selection import Refit
 
@@ -113,3 +113,19 @@ def test_a_name_the_recheck_withdrew_is_said_with_both_criteria():
         "; thixotropy (the yield stress falls as the material is sheared) fitted better (criterion -24.7) with a law "
         "the base fit had missed, and the base model refitted from that law comes within the evidence of it "
         "(criterion -26.2)")
+
+
+LAWS = {"bingham_fitted_modulus": Law(n=1.0, fitted_modulus=True), "flow_index": Law(n=None)}
+
+
+# a fitted flow index leaves no shear thinning to add
+@pytest.mark.parametrize(("law", "effect"), [(law, effect) for law in LAWS for effect in sorted(CANDIDATES)
+                                             if (law, effect) != ("flow_index", "shear_thinning")])
+def test_a_refit_is_found_again_from_the_values_its_record_keeps(law, effect):
+    law = LAWS[law]
+    low, high = CANDIDATES[effect].bounds
+    material = {"tau_y": 17.0, "K": 1.3, "n": 0.6, "mu": 240.0}
+    x = np.r_[np.log([material[name] for name in law.material_names]), low + 0.37 * (high - low)]
+    refit = Refit(effect, x, 1.0, 1.0, np.ones(FRAMES), len(x))
+    values = Diagnosis(law, _base(), [refit], None, {}, {}, _lagging_front(5), EVIDENCE).values(refit)
+    assert refit_point(law, effect, values) == pytest.approx(x, rel=1e-12, abs=1e-12)

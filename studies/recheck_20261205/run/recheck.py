@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from rheo.config import load_schema, load_yaml, validated
-from rheo.diagnose.candidates import CANDIDATES, Law
-from rheo.diagnose.dam_break import base_refit_from, law_steps, objectives, summary
+from rheo.diagnose.candidates import Law
+from rheo.diagnose.dam_break import base_refit_from, law_steps, objectives, refit_point, summary
 from rheo.diagnose.selection import named_below
 from rheo.experiments.rheometer import PARAMETER_KEYS
 from rheo.fit.dam_break import setup_files
@@ -38,16 +38,14 @@ def recheck(case_root: Path, diagnosis: dict, candidate: dict, store: Path, phas
     steps = law_steps(law.names, {n: tuple(fit[PARAMETER_KEYS[n]]["interval"]) for n in law.names},
                       settings["law_step"])
     box = tuple(np.log([fit_settings[n][i] for n in law.names]) for i in (0, 1))
-    effect = CANDIDATES[candidate["effect"]]
-    x = np.r_[np.log([candidate["values"][PARAMETER_KEYS[n]] for n in law.names]),
-              effect.coordinate(candidate["values"][effect.name])]
+    x = refit_point(law, candidate["effect"], candidate["values"])
     log = EvaluationLog(store, phase)
     with Evaluator(partial(objectives, setups, simulation, {"base": law}), workers) as evaluator:
 
         def joint(points: list[np.ndarray]) -> list[dict]:
             return [summary(evaluator.map([(f"base|{s}", x) for s in setups])) for x in points]
 
-        found = base_refit_from(effect.name, x, law, fit["shear_rate_band_per_s"], box, steps,
+        found = base_refit_from(candidate["effect"], x, law, fit["shear_rate_band_per_s"], box, steps,
                                 lambda x, phase: log.evaluate_many(joint, [x], phase)[0], log.best,
                                 settings["refit_evaluations"], phase)
     delta = found.criterion - diagnosis["base"]["criterion"]
