@@ -119,10 +119,10 @@ LAWS = {"bingham_fitted_modulus": Law(n=1.0, fitted_modulus=True), "flow_index":
 
 
 # a fitted flow index leaves no shear thinning to add
-@pytest.mark.parametrize(("law", "effect"), [(law, effect) for law in LAWS for effect in sorted(CANDIDATES)
-                                             if (law, effect) != ("flow_index", "shear_thinning")])
-def test_a_refit_is_found_again_from_the_values_its_record_keeps(law, effect):
-    law = LAWS[law]
+@pytest.mark.parametrize(("law_name", "effect"), [(name, effect) for name in LAWS for effect in sorted(CANDIDATES)
+                                                  if (name, effect) != ("flow_index", "shear_thinning")])
+def test_a_refit_is_found_again_from_the_values_its_record_keeps(law_name, effect):
+    law = LAWS[law_name]
     low, high = CANDIDATES[effect].bounds
     material = {"tau_y": 17.0, "K": 1.3, "n": 0.6, "mu": 240.0}
     x = np.r_[np.log([material[name] for name in law.material_names]), low + 0.37 * (high - low)]
