@@ -23,8 +23,16 @@ class Workflow:
         return [executable, *args, "-j2"]
 
     def run(self, *args: str, timeout: float = 600) -> subprocess.CompletedProcess:
-        return subprocess.run(self.command(*args), cwd=self.root, env=self.env, capture_output=True, text=True,
-                              timeout=timeout)
+        """Snakemake to its end, in a process group of its own: past ``timeout`` s the group is killed, the jobs
+        with it (not left running beside the next test), and ``TimeoutExpired`` raised."""
+        with subprocess.Popen(self.command(*args), cwd=self.root, env=self.env, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True, start_new_session=True) as job:
+            try:
+                stdout, stderr = job.communicate(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                self.kill(job)
+                raise
+        return subprocess.CompletedProcess(job.args, job.returncode, stdout, stderr)
 
     def start(self, *args: str) -> subprocess.Popen:
         """Snakemake in the background, in a process group of its own that ``kill`` ends with all its jobs."""

@@ -1,14 +1,16 @@
 """A run killed in the middle of the fit (SIGKILL to Snakemake and its jobs) resumes, after --unlock, with
 --rerun-incomplete from its stored evaluations: on the same cores to the same params.json, byte for byte, as a run
 never interrupted; on fewer cores (one worker instead of two) to a fit as good within the fit's tolerance. Finished
-stages are not run again."""
+stages are not run again. A run past its time limit is killed with its jobs."""
 
 import json
+import subprocess
 import time
+from pathlib import Path
 
 import pytest
 
-from tests.workflow.conftest import scratch_workflow
+from tests.workflow.conftest import Workflow, scratch_workflow
 
 TARGET = "results/tiny/fit/params.json"
 
@@ -55,3 +57,18 @@ def test_a_fit_killed_half_way_resumes_from_its_stored_evaluations(tmp_path, cor
             low, high = entry["interval"]
             if entry["determined"]:
                 assert low <= found["parameters"][name]["value"] <= high, name
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` exists and has not exited (a zombie has)."""
+    stat = Path(f"/proc/{pid}/stat")
+    return stat.exists() and stat.read_text().rsplit(")", 1)[1].split()[0] != "Z"
+
+
+def test_a_run_past_its_time_is_killed_with_its_jobs(tmp_path):
+    (tmp_path / "Snakefile").write_text('rule hang:\n    output: "never"\n'
+                                        '    shell: "sleep 300 & echo $! > sleep.pid; wait; touch {output}"\n')
+    with pytest.raises(subprocess.TimeoutExpired):
+        Workflow(tmp_path).run("never", timeout=30)
+    assert not _running(int((tmp_path / "sleep.pid").read_text()))
+
