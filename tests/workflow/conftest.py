@@ -25,8 +25,7 @@ class Workflow:
     def run(self, *args: str, timeout: float = 600) -> subprocess.CompletedProcess:
         """Snakemake to its end, in a process group of its own: past ``timeout`` s the group is killed, the jobs
         with it (not left running beside the next test), and ``TimeoutExpired`` raised."""
-        with subprocess.Popen(self.command(*args), cwd=self.root, env=self.env, stdout=subprocess.PIPE,
-                              stderr=subprocess.PIPE, text=True, start_new_session=True) as job:
+        with self.start(*args, output=subprocess.PIPE) as job:
             try:
                 stdout, stderr = job.communicate(timeout=timeout)
             except subprocess.TimeoutExpired:
@@ -34,10 +33,11 @@ class Workflow:
                 raise
         return subprocess.CompletedProcess(job.args, job.returncode, stdout, stderr)
 
-    def start(self, *args: str) -> subprocess.Popen:
-        """Snakemake in the background, in a process group of its own that ``kill`` ends with all its jobs."""
+    def start(self, *args: str, output: int = subprocess.DEVNULL) -> subprocess.Popen:
+        """Snakemake in the background, in a process group of its own that ``kill`` ends with all its jobs; its
+        stdout and stderr (text) to ``output``."""
         return subprocess.Popen(self.command(*args), cwd=self.root, env=self.env, start_new_session=True,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                                stdout=output, stderr=output, text=True)
 
     @staticmethod
     def kill(job: subprocess.Popen) -> None:
